@@ -1,0 +1,177 @@
+//! Reading and writing image files, with the format chosen by extension.
+//!
+//! Every writer goes through [`write_atomically`]: the bytes go to a hidden temporary file
+//! beside the target, which is renamed over the target only once complete, so a failed
+//! or interrupted write never leaves a half-written image behind.
+
+mod exr_file;
+mod ldr;
+mod pfm;
+mod rgbe;
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::{Image, ImageError};
+
+pub use pfm::{PfmEndianness, read_pfm, write_pfm};
+
+/// The file formats Lucid reads and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// OpenEXR.
+    Exr,
+    /// Portable FloatMap.
+    Pfm,
+    /// Radiance RGBE (`.hdr`).
+    Rgbe,
+    /// PNG.
+    Png,
+    /// JPEG.
+    Jpeg,
+}
+
+impl ImageFormat {
+    /// The format named by a path's extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Self, ImageError> {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        match ext.to_ascii_lowercase().as_str() {
+            "exr" => Ok(Self::Exr),
+            "pfm" => Ok(Self::Pfm),
+            "hdr" | "rgbe" | "pic" => Ok(Self::Rgbe),
+            "png" => Ok(Self::Png),
+            "jpg" | "jpeg" => Ok(Self::Jpeg),
+            _ => Err(ImageError::UnsupportedFormat { path: path.to_path_buf(), ext: ext.to_string() }),
+        }
+    }
+
+    /// True for the formats that store linear floating-point radiance.
+    pub fn is_hdr(self) -> bool {
+        matches!(self, Self::Exr | Self::Pfm | Self::Rgbe)
+    }
+
+    /// A short human name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Exr => "OpenEXR",
+            Self::Pfm => "PFM",
+            Self::Rgbe => "Radiance RGBE",
+            Self::Png => "PNG",
+            Self::Jpeg => "JPEG",
+        }
+    }
+}
+
+/// Sample precision of EXR output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ExrPrecision {
+    /// 16-bit half floats: half the size, ~3 decimal digits, max 65504.
+    Half,
+    /// 32-bit floats.
+    #[default]
+    Float,
+}
+
+/// Bit depth of PNG output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PngBitDepth {
+    /// 8 bits per channel.
+    #[default]
+    Eight,
+    /// 16 bits per channel.
+    Sixteen,
+}
+
+/// Options for [`write_image_with`]; each applies only to its format.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions {
+    /// EXR sample type.
+    pub exr_precision: ExrPrecision,
+    /// PNG bit depth.
+    pub png_bit_depth: PngBitDepth,
+    /// Write a single-channel file (EXR `Y`, greyscale PFM `Pf`, grey PNG) from the red
+    /// channel, e.g. for depth maps.
+    pub single_channel: bool,
+}
+
+/// Reads any supported image file into linear RGBA. LDR files are sRGB-decoded.
+pub fn read_image(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    let format = ImageFormat::from_path(path)?;
+    if !path.is_file() {
+        let source = if path.exists() {
+            std::io::Error::other("is not a regular file")
+        } else {
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")
+        };
+        return Err(ImageError::io(path, source));
+    }
+    match format {
+        ImageFormat::Exr => exr_file::read(path),
+        ImageFormat::Pfm => pfm::read_pfm(path),
+        ImageFormat::Rgbe => rgbe::read(path),
+        ImageFormat::Png | ImageFormat::Jpeg => ldr::read(path, format),
+    }
+}
+
+/// Reads only the header of an image file and returns `(width, height)`.
+pub fn image_dimensions(path: impl AsRef<Path>) -> Result<(usize, usize), ImageError> {
+    let path = path.as_ref();
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => exr_file::dimensions(path),
+        ImageFormat::Pfm => pfm::dimensions(path),
+        ImageFormat::Rgbe => rgbe::read(path).map(|i| i.dimensions()),
+        ImageFormat::Png | ImageFormat::Jpeg => ldr::dimensions(path),
+    }
+}
+
+/// Writes an image with default options (float EXR, 8-bit PNG), format by extension.
+pub fn write_image(path: impl AsRef<Path>, image: &Image) -> Result<(), ImageError> {
+    write_image_with(path, image, WriteOptions::default())
+}
+
+/// Writes an image, format by extension, atomically.
+pub fn write_image_with(path: impl AsRef<Path>, image: &Image, options: WriteOptions) -> Result<(), ImageError> {
+    let path = path.as_ref();
+    let format = ImageFormat::from_path(path)?;
+    if image.width() == 0 || image.height() == 0 {
+        return Err(ImageError::encode(path, format.name(), "image is empty"));
+    }
+    write_atomically(path, |out| match format {
+        ImageFormat::Exr => exr_file::write(out, path, image, options),
+        ImageFormat::Pfm => pfm::write_pfm_to(out, image, options.single_channel, PfmEndianness::Little)
+            .map_err(|e| ImageError::io(path, e)),
+        ImageFormat::Rgbe => rgbe::write(out, path, image),
+        ImageFormat::Png | ImageFormat::Jpeg => ldr::write(out, path, image, format, options),
+    })
+}
+
+/// Writes a file through `write` into a temporary sibling, then renames it over `path`.
+/// On any error the temporary file is removed and `path` is left untouched.
+pub fn write_atomically<E>(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>) -> Result<(), E>
+where
+    E: From<ImageError>,
+{
+    let tmp = temporary_sibling(path);
+    let file = File::create(&tmp).map_err(|e| ImageError::io(path, e))?;
+    let mut out = BufWriter::new(file);
+    let result = write(&mut out).and_then(|()| {
+        out.flush().map_err(|e| ImageError::io(path, e))?;
+        let file = out.into_inner().map_err(|e| ImageError::io(path, e.into_error()))?;
+        file.sync_all().map_err(|e| ImageError::io(path, e))?;
+        drop(file);
+        std::fs::rename(&tmp, path).map_err(|e| ImageError::io(path, e).into())
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// `dir/.name.<pid>.tmp`: hidden, in the same directory so the rename is atomic, and unique
+/// per process so two writers never share one.
+fn temporary_sibling(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}

@@ -1,0 +1,83 @@
+//! Image quality metrics: PSNR and SSIM, with the conventions of the NeRF literature.
+//!
+//! Both compare the RGB channels of two images of the same size after clipping them to
+//! `[0,1]`; alpha is ignored, so composite images onto a background first
+//! ([`crate::color::composite_over`]) when alpha matters. An optional mask (one weight per
+//! pixel, counted where > 0.5) restricts either metric to a region.
+
+mod psnr;
+mod ssim;
+
+pub use psnr::{mse, psnr, psnr_from_mse};
+pub use ssim::{SSIM_K1, SSIM_K2, SSIM_SIGMA, SSIM_WINDOW, ssim, ssim_map};
+
+use crate::Image;
+
+/// Why two images could not be compared.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MetricError {
+    /// The images (or the mask) differ in size.
+    #[error("image sizes differ: {a:?} vs {b:?}")]
+    SizeMismatch {
+        /// `(width, height)` of the first.
+        a: (usize, usize),
+        /// `(width, height)` of the second.
+        b: (usize, usize),
+    },
+    /// SSIM needs at least one full 11×11 window.
+    #[error("image of {0}x{1} is smaller than the 11x11 SSIM window")]
+    TooSmall(usize, usize),
+    /// The mask selects no pixel.
+    #[error("the mask selects no pixel")]
+    EmptyMask,
+}
+
+/// PSNR and SSIM of one pair of images.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageMetrics {
+    /// Peak signal-to-noise ratio in dB (infinite for identical images).
+    pub psnr: f64,
+    /// Structural similarity, in `[-1, 1]`.
+    pub ssim: f64,
+}
+
+/// Computes both metrics of `prediction` against `reference`.
+pub fn compare(prediction: &Image, reference: &Image, mask: Option<&[f32]>) -> Result<ImageMetrics, MetricError> {
+    Ok(ImageMetrics { psnr: psnr(prediction, reference, mask)?, ssim: ssim(prediction, reference, mask)? })
+}
+
+/// Averages of metrics over a set of image pairs, per image as the literature does
+/// (mean of per-image PSNRs, not PSNR of the mean error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MetricSummary {
+    /// Number of pairs.
+    pub count: usize,
+    /// Mean PSNR in dB.
+    pub psnr: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+}
+
+impl MetricSummary {
+    /// Averages a list of per-image metrics. An empty list averages to NaN.
+    pub fn from_images(metrics: &[ImageMetrics]) -> Self {
+        let n = metrics.len() as f64;
+        Self {
+            count: metrics.len(),
+            psnr: metrics.iter().map(|m| m.psnr).sum::<f64>() / n,
+            ssim: metrics.iter().map(|m| m.ssim).sum::<f64>() / n,
+        }
+    }
+}
+
+pub(crate) fn check_sizes(a: &Image, b: &Image, mask: Option<&[f32]>) -> Result<(), MetricError> {
+    if a.dimensions() != b.dimensions() {
+        return Err(MetricError::SizeMismatch { a: a.dimensions(), b: b.dimensions() });
+    }
+    if let Some(m) = mask {
+        if m.len() != a.width() * a.height() {
+            return Err(MetricError::SizeMismatch { a: a.dimensions(), b: (m.len(), 1) });
+        }
+    }
+    Ok(())
+}
