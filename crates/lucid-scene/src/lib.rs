@@ -1,1 +1,20 @@
-//! placeholder
+//! Rays, cameras and the dataset format.
+//!
+//! Conventions (shared by every Lucid crate):
+//! - World space is right-handed; the NeRF-synthetic data is +Z up.
+//! - A camera pose is a camera-to-world 4×4 matrix in the OpenGL convention: the camera
+//!   looks down its local −Z axis, +Y is up and +X is right.
+//! - Pixel `(i, j)` (column, row from the top) has its centre at `(i + 0.5, j + 0.5)`, and
+//!   the focal length in pixels is `f = 0.5·W / tan(0.5·camera_angle_x)`.
+//!
+//! The [`dataset`] module reads and writes the NeRF-synthetic / instant-ngp
+//! `transforms_*.json` layout.
+
+pub mod camera;
+pub mod dataset;
+pub mod ray;
+pub mod sampling;
+
+pub use camera::{Camera, Intrinsics, PinholeCamera, ThinLensCamera, look_at};
+pub use dataset::{Dataset, DatasetError, Frame, FrameExtras, Split, SplitFrames};
+pub use ray::Ray;
