@@ -1,8 +1,8 @@
 //! Image quality metrics: PSNR and SSIM, with the conventions of the NeRF literature.
 //!
 //! Both compare the RGB channels of two images of the same size after clipping them to
-//! `[0,1]`; alpha is ignored, so composite images onto a background first
-//! ([`crate::color::composite_over`]) when alpha matters. An optional mask (one weight per
+//! `[0,1]`; alpha is ignored. [`prepare_for_metrics`] puts images in the space the NeRF
+//! literature measures in: sRGB-encoded, composited over a background colour. An optional mask (one weight per
 //! pixel, counted where > 0.5) restricts either metric to a region.
 
 mod psnr;
@@ -70,14 +70,54 @@ impl MetricSummary {
     }
 }
 
+/// The colour space metrics are computed in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum MetricSpace {
+    /// sRGB-encoded values, as stored in 8-bit files: the convention of the NeRF literature
+    /// (published PSNRs are on PNG pixel values / 255).
+    #[default]
+    Srgb,
+    /// Linear radiance clipped to `[0,1]`.
+    Linear,
+}
+
+/// Prepares an image for comparison: composites it over an opaque `background` (given in
+/// the same space as the result) and, for [`MetricSpace::Srgb`], encodes it first, so that
+/// compositing happens on encoded values exactly as evaluation scripts do with RGBA PNGs.
+pub fn prepare_for_metrics(image: &Image, background: [f32; 3], space: MetricSpace) -> Image {
+    let encoded = match space {
+        MetricSpace::Srgb => {
+            use crate::color::srgb_encode;
+            image.map(|p| [srgb_encode(p[0]), srgb_encode(p[1]), srgb_encode(p[2]), p[3]])
+        }
+        MetricSpace::Linear => image.clone(),
+    };
+    crate::color::composite_over(&encoded, background)
+}
+
 pub(crate) fn check_sizes(a: &Image, b: &Image, mask: Option<&[f32]>) -> Result<(), MetricError> {
     if a.dimensions() != b.dimensions() {
         return Err(MetricError::SizeMismatch { a: a.dimensions(), b: b.dimensions() });
     }
-    if let Some(m) = mask {
-        if m.len() != a.width() * a.height() {
-            return Err(MetricError::SizeMismatch { a: a.dimensions(), b: (m.len(), 1) });
-        }
+    if let Some(m) = mask
+        && m.len() != a.width() * a.height()
+    {
+        return Err(MetricError::SizeMismatch { a: a.dimensions(), b: (m.len(), 1) });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preparation_composites_encoded_values() {
+        // Half-transparent linear 0.18 grey over white: encode (0.4614), then blend with 1.
+        let img = Image::filled(1, 1, [0.18, 0.18, 0.18, 0.5]);
+        let p = prepare_for_metrics(&img, [1.0; 3], MetricSpace::Srgb).get(0, 0);
+        assert!((p[0] - (0.5 * 0.461_356 + 0.5)).abs() < 1e-4, "{p:?}");
+        let p = prepare_for_metrics(&img, [0.0; 3], MetricSpace::Linear).get(0, 0);
+        assert!((p[0] - 0.09).abs() < 1e-7 && p[3] == 1.0);
+    }
 }

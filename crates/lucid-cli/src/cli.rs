@@ -1,0 +1,131 @@
+//! The argument grammar of `lucid` (clap derive).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Lucid: neural scene representations (NeRF, 3D Gaussian splatting) trained on the CPU from
+/// physically based synthetic datasets.
+#[derive(Debug, Parser)]
+#[command(name = "lucid", version, about, propagate_version = true)]
+pub struct Cli {
+    /// More log output (-v debug, -vv trace). `LUCID_LOG` overrides, e.g. `LUCID_LOG=debug`.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    /// Only errors.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Generate a small dataset end to end and print its metrics (the quick demo).
+    Demo(DemoArgs),
+    /// Convert an image between formats (.exr, .pfm, .hdr, .png, .jpg), with exposure and a
+    /// tone curve when going from HDR to LDR.
+    Convert(ConvertArgs),
+    /// PSNR and SSIM of two images, or of two folders of images matched by file stem.
+    Metrics(MetricsArgs),
+    /// Describe a dataset folder (transforms_*.json): frames, resolution, intrinsics, bounds.
+    Info(InfoArgs),
+}
+
+/// `lucid demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Output folder.
+    #[arg(long, default_value = "out/demo")]
+    pub out: PathBuf,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 96)]
+    pub size: u32,
+    /// Views in the train, val and test splits, as TRAIN,VAL,TEST.
+    #[arg(long, default_value = "24,4,8", value_parser = parse_split_counts)]
+    pub views: [usize; 3],
+    /// Seed of the camera rig.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+/// Parses `TRAIN,VAL,TEST` view counts.
+fn parse_split_counts(text: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [a, b, c] = parts.as_slice() else {
+        return Err(format!("expected TRAIN,VAL,TEST (three counts), got {text:?}"));
+    };
+    let count = |s: &str| s.parse::<usize>().map_err(|_| format!("{s:?} is not a view count"));
+    Ok([count(a)?, count(b)?, count(c)?])
+}
+
+/// Tone curves for HDR → LDR.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ToneCurveArg {
+    /// Clip at 1.
+    Clip,
+    /// x / (1 + x).
+    Reinhard,
+    /// ACES filmic fit (Narkowicz).
+    Aces,
+}
+
+/// `lucid convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Input image.
+    pub input: PathBuf,
+    /// Output image; the format follows the extension.
+    pub output: PathBuf,
+    /// Exposure change in stops (multiplies linear radiance by 2^EV).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Tone curve applied when the output is LDR (.png, .jpg).
+    #[arg(long, value_enum, default_value_t = ToneCurveArg::Clip)]
+    pub tone_curve: ToneCurveArg,
+    /// Write EXR with 16-bit half floats instead of 32-bit floats.
+    #[arg(long)]
+    pub half: bool,
+    /// Write 16-bit PNG instead of 8-bit.
+    #[arg(long)]
+    pub png16: bool,
+}
+
+/// Colour space of the metrics.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SpaceArg {
+    /// sRGB-encoded values (the NeRF literature's convention).
+    Srgb,
+    /// Linear values clipped to [0, 1].
+    Linear,
+}
+
+/// `lucid metrics`.
+#[derive(Debug, Args)]
+pub struct MetricsArgs {
+    /// Prediction: an image or a folder.
+    pub prediction: PathBuf,
+    /// Reference: an image or a folder.
+    pub reference: PathBuf,
+    /// Background that transparent pixels are composited onto: white, black, or R,G,B in [0,1].
+    #[arg(long, default_value = "white")]
+    pub background: String,
+    /// Space the metrics are computed in.
+    #[arg(long, value_enum, default_value_t = SpaceArg::Srgb)]
+    pub space: SpaceArg,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `lucid info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// The dataset folder.
+    pub dataset: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}

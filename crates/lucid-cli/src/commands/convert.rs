@@ -1,0 +1,40 @@
+//! `lucid convert IN OUT`: any supported image format to any other.
+
+use anyhow::Context;
+use lucid_image::tonemap::ToneCurve;
+use lucid_image::{ExrPrecision, ImageFormat, PngBitDepth, WriteOptions, read_image, write_image_with};
+
+use crate::cli::{ConvertArgs, ToneCurveArg};
+
+pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
+    if !args.exposure.is_finite() {
+        anyhow::bail!("--exposure must be a finite number of stops, got {}", args.exposure);
+    }
+    // Check the output format before doing any work.
+    let out_format = ImageFormat::from_path(&args.output)?;
+    let image = read_image(&args.input)?;
+    let curve = match args.tone_curve {
+        ToneCurveArg::Clip => ToneCurve::Clip,
+        ToneCurveArg::Reinhard => ToneCurve::Reinhard,
+        ToneCurveArg::Aces => ToneCurve::Aces,
+    };
+    let converted = if out_format.is_hdr() {
+        lucid_image::color::apply_exposure(&image, args.exposure)
+    } else {
+        curve.map_image(&image, args.exposure)
+    };
+    let options = WriteOptions {
+        exr_precision: if args.half { ExrPrecision::Half } else { ExrPrecision::Float },
+        png_bit_depth: if args.png16 { PngBitDepth::Sixteen } else { PngBitDepth::Eight },
+        single_channel: false,
+    };
+    write_image_with(&args.output, &converted, options).with_context(|| "conversion failed".to_string())?;
+    tracing::info!(
+        "wrote {} ({}x{}, {})",
+        args.output.display(),
+        converted.width(),
+        converted.height(),
+        out_format.name()
+    );
+    Ok(())
+}

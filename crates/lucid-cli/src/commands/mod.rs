@@ -1,0 +1,57 @@
+//! One module per subcommand; each exposes `run(args) -> anyhow::Result<()>`.
+
+mod convert;
+mod demo;
+mod info;
+mod metrics;
+
+use anyhow::{Context, bail};
+
+use crate::cli::Command;
+
+/// Runs one subcommand.
+pub fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Demo(args) => demo::run(args),
+        Command::Convert(args) => convert::run(args),
+        Command::Metrics(args) => metrics::run(args),
+        Command::Info(args) => info::run(args),
+    }
+}
+
+/// Parses a background colour: `white`, `black`, `grey`, or `R,G,B` with components in [0,1].
+pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
+    match text.to_ascii_lowercase().as_str() {
+        "white" => return Ok([1.0; 3]),
+        "black" => return Ok([0.0; 3]),
+        "grey" | "gray" => return Ok([0.5; 3]),
+        _ => {}
+    }
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        bail!("background {text:?}: expected white, black, grey or R,G,B");
+    }
+    let mut rgb = [0.0f32; 3];
+    for (c, part) in rgb.iter_mut().zip(&parts) {
+        let v: f32 = part.parse().with_context(|| format!("background {text:?}: {part:?} is not a number"))?;
+        if !(0.0..=1.0).contains(&v) {
+            bail!("background {text:?}: components must be in [0, 1]");
+        }
+        *c = v;
+    }
+    Ok(rgb)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn backgrounds_parse_and_bad_ones_are_rejected() {
+        assert_eq!(parse_background("White").unwrap(), [1.0; 3]);
+        assert_eq!(parse_background("0.1, 0.2,0.3").unwrap(), [0.1, 0.2, 0.3]);
+        for bad in ["blue", "1,2", "0.5,0.5,NaN", "0.5,0.5,1.5", "a,b,c"] {
+            assert!(parse_background(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,1 +1,0 @@
-//! End-to-end tests of the `lucid` binary live in `tests/`.

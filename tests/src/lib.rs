@@ -1,0 +1,100 @@
+//! Helpers for the end-to-end tests in `tests/tests/`: they run the real `lucid` binary as a
+//! user would and check exit codes, messages and files.
+//!
+//! `cargo test --workspace --release` builds the binary before any test runs (the
+//! `lucid-cli` package has integration tests, which makes cargo build its binary). To run
+//! these tests alone, build it first or point `LUCID_BIN` at one.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `lucid` binary of the profile these tests were built with.
+pub fn lucid_bin() -> PathBuf {
+    if let Some(path) = std::env::var_os("LUCID_BIN") {
+        return PathBuf::from(path);
+    }
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> → target/<profile>/lucid
+    let profile_dir = exe.parent().and_then(Path::parent).expect("test executable lives in target/<profile>/deps");
+    let bin = profile_dir.join(format!("lucid{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        bin.is_file(),
+        "{} not found: run `cargo test --workspace --release`, or build it with `cargo build --release -p lucid-cli`",
+        bin.display()
+    );
+    bin
+}
+
+/// The result of one run of `lucid`.
+#[derive(Debug)]
+pub struct Run {
+    /// Exit code (`None` if killed by a signal).
+    pub code: Option<i32>,
+    /// Standard output.
+    pub stdout: String,
+    /// Standard error.
+    pub stderr: String,
+}
+
+impl Run {
+    /// Panics unless the run succeeded.
+    pub fn success(self) -> Self {
+        assert_eq!(self.code, Some(0), "lucid failed:\nstdout:\n{}\nstderr:\n{}", self.stdout, self.stderr);
+        self
+    }
+
+    /// Panics unless the run failed with exit code 1 and a one-line `error:` message that
+    /// contains every needle; returns the message.
+    pub fn failure(self, needles: &[&str]) -> String {
+        assert_eq!(self.code, Some(1), "expected exit code 1:\nstdout:\n{}\nstderr:\n{}", self.stdout, self.stderr);
+        let errors: Vec<&str> = self.stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(errors.len(), 1, "expected one error line, stderr:\n{}", self.stderr);
+        for needle in needles {
+            assert!(errors[0].contains(needle), "error line {:?} lacks {needle:?}", errors[0]);
+        }
+        errors[0].to_string()
+    }
+
+    /// Parses stdout as JSON.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::from_str(&self.stdout).unwrap_or_else(|e| panic!("stdout is not JSON ({e}):\n{}", self.stdout))
+    }
+}
+
+/// Runs `lucid` with `args` in `dir`.
+pub fn lucid_in(dir: &Path, args: &[&str]) -> Run {
+    let out: Output = Command::new(lucid_bin())
+        .args(args)
+        .current_dir(dir)
+        .env("LUCID_LOG", "warn")
+        .output()
+        .expect("lucid binary runs");
+    Run {
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// Every file under `dir`, relative, sorted: for checking that nothing half-written remains.
+pub fn files_under(dir: &Path) -> Vec<String> {
+    fn walk(base: &Path, dir: &Path, out: &mut Vec<String>) {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let p = entry.path();
+            if p.is_dir() {
+                walk(base, &p, out);
+            } else {
+                out.push(p.strip_prefix(base).unwrap_or(&p).display().to_string());
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+/// A fresh temporary folder.
+pub fn temp_dir() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temporary folder")
+}
