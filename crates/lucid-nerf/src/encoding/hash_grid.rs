@@ -1,0 +1,304 @@
+//! The multiresolution hash encoding of Müller et al. (instant-ngp), as plain Rust over
+//! slices: the layout of the levels in one parameter table, the forward trilinear lookup
+//! and the backward scatter-add of gradients into the table.
+//!
+//! Written by hand because no crate provides it on the CPU; the burn op in
+//! [`crate::kernels`] wraps these functions.
+//!
+//! Level `l` has the grid scale `s_l = N_min·b^l − 1` with `b = exp((ln N_max − ln N_min)/(L−1))`;
+//! a point `x ∈ [0,1]³` sits at `x·s_l + 0.5` in grid units, and its 8 surrounding vertices
+//! are looked up, densely where the level's `(⌈s_l⌉+2)³` vertices fit in the table, else
+//! through the spatial hash `(x·1 ⊕ y·2654435761 ⊕ z·805459861) mod T`.
+
+use rayon::prelude::*;
+
+/// Hyper-parameters of the encoding.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HashGridConfig {
+    /// Number of levels `L`.
+    pub levels: usize,
+    /// Features per level `F`.
+    pub features_per_level: usize,
+    /// `log2` of the table size `T` per level.
+    pub log2_table_size: u32,
+    /// Resolution of the coarsest level `N_min`.
+    pub base_resolution: f32,
+    /// Resolution of the finest level `N_max`.
+    pub finest_resolution: f32,
+}
+
+impl Default for HashGridConfig {
+    /// instant-ngp's NeRF defaults, with a 2^19 table.
+    fn default() -> Self {
+        Self {
+            levels: 16,
+            features_per_level: 2,
+            log2_table_size: 19,
+            base_resolution: 16.0,
+            finest_resolution: 2048.0,
+        }
+    }
+}
+
+impl HashGridConfig {
+    /// Growth factor `b` between levels.
+    pub fn per_level_scale(&self) -> f32 {
+        if self.levels <= 1 {
+            return 1.0;
+        }
+        ((self.finest_resolution.ln() - self.base_resolution.ln()) / (self.levels - 1) as f32).exp()
+    }
+
+    /// Width of the encoded feature vector, `L·F`.
+    pub fn output_dim(&self) -> usize {
+        self.levels * self.features_per_level
+    }
+
+    /// Checks the values; the message says which one is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.levels == 0 || self.levels > 64 {
+            return Err(format!("levels must be in 1..=64, got {}", self.levels));
+        }
+        if self.features_per_level == 0 || self.features_per_level > 16 {
+            return Err(format!("features_per_level must be in 1..=16, got {}", self.features_per_level));
+        }
+        if !(4..=26).contains(&self.log2_table_size) {
+            return Err(format!("log2_table_size must be in 4..=26, got {}", self.log2_table_size));
+        }
+        if !(self.base_resolution >= 2.0 && self.base_resolution.is_finite()) {
+            return Err(format!("base_resolution must be at least 2, got {}", self.base_resolution));
+        }
+        if !(self.finest_resolution >= self.base_resolution && self.finest_resolution.is_finite()) {
+            return Err(format!(
+                "finest_resolution ({}) must be at least base_resolution ({})",
+                self.finest_resolution, self.base_resolution
+            ));
+        }
+        Ok(())
+    }
+
+    /// Where each level lives in the table.
+    pub fn layout(&self) -> HashGridLayout {
+        let table_size = 1usize << self.log2_table_size;
+        let b = self.per_level_scale();
+        let mut offset = 0;
+        let levels = (0..self.levels)
+            .map(|l| {
+                let scale = self.base_resolution * b.powi(l as i32) - 1.0;
+                let resolution = scale.ceil() as usize + 2;
+                let dense_size = resolution.checked_pow(3).unwrap_or(usize::MAX);
+                let (size, dense) = if dense_size <= table_size { (dense_size, true) } else { (table_size, false) };
+                let level = LevelLayout { scale, resolution: resolution as u32, offset, size, dense };
+                offset += size;
+                level
+            })
+            .collect();
+        HashGridLayout { levels, entries: offset, features: self.features_per_level }
+    }
+}
+
+/// One level's place in the parameter table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelLayout {
+    /// Grid scale `s_l`: a point `x` sits at `x·s_l + 0.5` grid units.
+    pub scale: f32,
+    /// Vertices per axis of the dense grid.
+    pub resolution: u32,
+    /// First table row of this level.
+    pub offset: usize,
+    /// Rows of this level.
+    pub size: usize,
+    /// Dense indexing (no hash collisions) when the grid fits.
+    pub dense: bool,
+}
+
+impl LevelLayout {
+    /// Table row (relative to the level) of grid vertex `v`.
+    #[inline]
+    pub fn index(&self, v: [u32; 3]) -> usize {
+        if self.dense {
+            let r = self.resolution as usize;
+            v[0] as usize + r * (v[1] as usize + r * v[2] as usize)
+        } else {
+            let h = v[0] ^ v[1].wrapping_mul(2_654_435_761) ^ v[2].wrapping_mul(805_459_861);
+            h as usize & (self.size - 1)
+        }
+    }
+
+    /// The 8 (row, weight) pairs of trilinear interpolation at `x ∈ [0,1]³` (clamped).
+    #[inline]
+    pub fn corners(&self, x: [f32; 3]) -> [(usize, f32); 8] {
+        let mut base = [0u32; 3];
+        let mut frac = [0f32; 3];
+        let max_vertex = self.resolution - 2;
+        for a in 0..3 {
+            let p = x[a].clamp(0.0, 1.0) * self.scale + 0.5;
+            let f = p.floor();
+            base[a] = (f as u32).min(max_vertex);
+            frac[a] = p - base[a] as f32;
+        }
+        std::array::from_fn(|c| {
+            let d = [(c & 1) as u32, ((c >> 1) & 1) as u32, ((c >> 2) & 1) as u32];
+            let mut w = 1.0;
+            for a in 0..3 {
+                w *= if d[a] == 1 { frac[a] } else { 1.0 - frac[a] };
+            }
+            (self.offset + self.index([base[0] + d[0], base[1] + d[1], base[2] + d[2]]), w)
+        })
+    }
+}
+
+/// The levels of a configured encoding and the table they share.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HashGridLayout {
+    /// Per-level placement.
+    pub levels: Vec<LevelLayout>,
+    /// Total rows of the table.
+    pub entries: usize,
+    /// Features per row.
+    pub features: usize,
+}
+
+/// Points per parallel task: large enough to amortise scheduling, small enough to balance.
+const CHUNK: usize = 512;
+
+impl HashGridLayout {
+    /// Width of the output per point.
+    pub fn output_dim(&self) -> usize {
+        self.levels.len() * self.features
+    }
+
+    /// Encodes `positions` (`N×3`, in `[0,1]`) with `table` (`entries×F`) into `out` (`N×L·F`).
+    pub fn forward(&self, positions: &[f32], table: &[f32], out: &mut [f32]) {
+        let (f, width) = (self.features, self.output_dim());
+        assert_eq!(table.len(), self.entries * f, "table has the wrong size");
+        assert_eq!(out.len(), positions.len() / 3 * width, "output has the wrong size");
+        out.par_chunks_mut(CHUNK * width).zip(positions.par_chunks(CHUNK * 3)).for_each(|(out, pos)| {
+            for (o, p) in out.chunks_exact_mut(width).zip(pos.chunks_exact(3)) {
+                for (l, level) in self.levels.iter().enumerate() {
+                    let acc = &mut o[l * f..(l + 1) * f];
+                    acc.fill(0.0);
+                    for (row, w) in level.corners([p[0], p[1], p[2]]) {
+                        for (a, t) in acc.iter_mut().zip(&table[row * f..(row + 1) * f]) {
+                            *a += w * t;
+                        }
+                    }
+                }
+            }
+        });
+    }
+
+    /// Accumulates `∂loss/∂table` into `grad_table` (`entries×F`, zeroed by the caller) from
+    /// `∂loss/∂out` (`N×L·F`). Parallel over levels: their rows are disjoint, so no two tasks
+    /// write the same row and no atomics or per-thread copies of the table are needed.
+    pub fn backward(&self, positions: &[f32], grad_out: &[f32], grad_table: &mut [f32]) {
+        let (f, width) = (self.features, self.output_dim());
+        assert_eq!(grad_table.len(), self.entries * f, "gradient table has the wrong size");
+        let mut segments = Vec::with_capacity(self.levels.len());
+        let mut rest = grad_table;
+        for level in &self.levels {
+            let (seg, tail) = rest.split_at_mut(level.size * f);
+            segments.push(seg);
+            rest = tail;
+        }
+        segments.into_par_iter().zip(self.levels.par_iter().enumerate()).for_each(|(seg, (l, level))| {
+            for (p, g) in positions.chunks_exact(3).zip(grad_out.chunks_exact(width)) {
+                let g = &g[l * f..(l + 1) * f];
+                for (row, w) in level.corners([p[0], p[1], p[2]]) {
+                    let local = (row - level.offset) * f;
+                    for (dst, gv) in seg[local..local + f].iter_mut().zip(g) {
+                        *dst += w * gv;
+                    }
+                }
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> HashGridConfig {
+        HashGridConfig {
+            levels: 4,
+            features_per_level: 2,
+            log2_table_size: 10,
+            base_resolution: 4.0,
+            finest_resolution: 32.0,
+        }
+    }
+
+    #[test]
+    fn layout_levels_grow_geometrically_and_go_from_dense_to_hashed() {
+        let layout = small().layout();
+        assert!((small().per_level_scale() - 2.0).abs() < 1e-6);
+        let scales: Vec<f32> = layout.levels.iter().map(|l| l.scale).collect();
+        assert_eq!(scales, [3.0, 7.0, 15.0, 31.0]);
+        // 5³ = 125 and 9³ = 729 fit in 1024 rows; 17³ does not.
+        assert_eq!(layout.levels.iter().map(|l| l.dense).collect::<Vec<_>>(), [true, true, false, false]);
+        assert_eq!(layout.entries, 125 + 729 + 1024 + 1024);
+        assert_eq!(layout.levels[2].offset, 125 + 729);
+    }
+
+    #[test]
+    fn interpolation_weights_sum_to_one_and_reproduce_linear_functions() {
+        // Fill a dense level with a linear function of the vertex position in [0,1]³ units;
+        // trilinear interpolation must return that function at any point.
+        let config = HashGridConfig { levels: 1, features_per_level: 1, log2_table_size: 12, ..small() };
+        let layout = config.layout();
+        let level = layout.levels[0];
+        assert!(level.dense);
+        let r = level.resolution;
+        let mut table = vec![0.0; layout.entries];
+        let lin = |p: [f32; 3]| 0.3 + 1.5 * p[0] - 0.7 * p[1] + 2.0 * p[2];
+        for z in 0..r {
+            for y in 0..r {
+                for x in 0..r {
+                    // Vertex v sits at x = (v − 0.5)/s in [0,1] units.
+                    let p = [x, y, z].map(|v| (v as f32 - 0.5) / level.scale);
+                    table[level.index([x, y, z])] = lin(p);
+                }
+            }
+        }
+        for p in [[0.1, 0.2, 0.3], [0.77, 0.01, 0.5], [1.0, 1.0, 0.0], [0.0, 0.5, 0.999]] {
+            let weights: f32 = level.corners(p).iter().map(|c| c.1).sum();
+            assert!((weights - 1.0).abs() < 1e-6);
+            let mut out = [0.0f32];
+            layout.forward(&p, &table, &mut out);
+            assert!((out[0] - lin(p)).abs() < 1e-4, "{p:?}: {} vs {}", out[0], lin(p));
+        }
+    }
+
+    #[test]
+    fn backward_is_the_transpose_of_forward() {
+        // The encoding is linear in the table: <grad_out, forward(table)> = <backward(grad_out), table>.
+        let layout = small().layout();
+        let n = 300;
+        let positions: Vec<f32> = (0..n * 3).map(|i| (i as f32 * 0.618_034).fract()).collect();
+        let table: Vec<f32> = (0..layout.entries * 2).map(|i| (i as f32 * 0.414_213_6).fract() - 0.5).collect();
+        let grad_out: Vec<f32> =
+            (0..n * layout.output_dim()).map(|i| (i as f32 * 0.732_050_8).fract() - 0.5).collect();
+        let mut out = vec![0.0; n * layout.output_dim()];
+        layout.forward(&positions, &table, &mut out);
+        let mut grad_table = vec![0.0; table.len()];
+        layout.backward(&positions, &grad_out, &mut grad_table);
+        let lhs: f64 = out.iter().zip(&grad_out).map(|(a, b)| (*a as f64) * (*b as f64)).sum();
+        let rhs: f64 = grad_table.iter().zip(&table).map(|(a, b)| (*a as f64) * (*b as f64)).sum();
+        assert!((lhs - rhs).abs() < 1e-3 * lhs.abs().max(1.0), "{lhs} vs {rhs}");
+    }
+
+    #[test]
+    fn bad_configs_are_rejected() {
+        assert!(HashGridConfig::default().validate().is_ok());
+        let bad = [
+            HashGridConfig { levels: 0, ..Default::default() },
+            HashGridConfig { log2_table_size: 40, ..Default::default() },
+            HashGridConfig { base_resolution: f32::NAN, ..Default::default() },
+            HashGridConfig { finest_resolution: 8.0, ..Default::default() },
+        ];
+        for c in bad {
+            assert!(c.validate().is_err(), "{c:?}");
+        }
+    }
+}

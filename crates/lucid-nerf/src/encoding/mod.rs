@@ -1,0 +1,3 @@
+//! Input encodings of the NeRF model.
+
+pub mod hash_grid;
