@@ -7,6 +7,9 @@
 //! backend the forward registers a backward step that scatters `∂loss/∂out` into the table.
 //! Positions are treated as constants: NeRF samples them, it does not learn them.
 
+// burn-ndarray is deprecated upstream; the `ndarray` feature keeps it selectable on purpose.
+#![cfg_attr(feature = "ndarray", allow(deprecated))]
+
 use burn::backend::autodiff::checkpoint::{base::Checkpointer, strategy::CheckpointStrategy};
 use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind, unary};

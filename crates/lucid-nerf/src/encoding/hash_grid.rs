@@ -277,8 +277,7 @@ mod tests {
         let n = 300;
         let positions: Vec<f32> = (0..n * 3).map(|i| (i as f32 * 0.618_034).fract()).collect();
         let table: Vec<f32> = (0..layout.entries * 2).map(|i| (i as f32 * 0.414_213_6).fract() - 0.5).collect();
-        let grad_out: Vec<f32> =
-            (0..n * layout.output_dim()).map(|i| (i as f32 * 0.732_050_8).fract() - 0.5).collect();
+        let grad_out: Vec<f32> = (0..n * layout.output_dim()).map(|i| (i as f32 * 0.732_050_8).fract() - 0.5).collect();
         let mut out = vec![0.0; n * layout.output_dim()];
         layout.forward(&positions, &table, &mut out);
         let mut grad_table = vec![0.0; table.len()];

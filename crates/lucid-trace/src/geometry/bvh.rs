@@ -1,0 +1,278 @@
+//! A bounding volume hierarchy built with the binned surface-area heuristic (Wald 2007),
+//! flattened into an array for traversal. Written by hand: the crates that exist either
+//! own the primitive type or lack any-hit queries for shadow rays, and this is ~200 lines.
+
+use glam::Vec3;
+use lucid_scene::Ray;
+
+use super::{Aabb, Intersection, Primitive};
+
+const BINS: usize = 16;
+const MAX_LEAF: usize = 4;
+/// Relative cost of one traversal step against one primitive test.
+const TRAVERSAL_COST: f32 = 1.0;
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    bounds: Aabb,
+    /// Leaf: first primitive; interior: index of the second child (the first follows).
+    offset: u32,
+    /// Leaf: primitive count; interior: 0.
+    count: u16,
+    /// Interior: split axis.
+    axis: u8,
+}
+
+/// The BVH and the primitives, reordered so that each leaf's are contiguous.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    primitives: Vec<Primitive>,
+}
+
+struct BuildItem {
+    bounds: Aabb,
+    centre: Vec3,
+    index: usize,
+}
+
+impl Bvh {
+    /// Builds the hierarchy.
+    pub fn new(primitives: Vec<Primitive>) -> Self {
+        let mut items: Vec<BuildItem> = primitives
+            .iter()
+            .enumerate()
+            .map(|(index, p)| {
+                let bounds = p.shape.bounds();
+                BuildItem { bounds, centre: bounds.centre(), index }
+            })
+            .collect();
+        let mut nodes = Vec::with_capacity(2 * items.len().max(1));
+        if !items.is_empty() {
+            build(&mut items, 0, &mut nodes);
+        }
+        let ordered = items.iter().map(|it| primitives[it.index]).collect();
+        Self { nodes, primitives: ordered }
+    }
+
+    /// The primitives in BVH order: [`Intersection::primitive`] indexes this slice.
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.primitives
+    }
+
+    /// Bounds of everything.
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map(|n| n.bounds).unwrap_or(Aabb::EMPTY)
+    }
+
+    /// The nearest intersection with `t` in `(t_min, t_max)`.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Intersection> {
+        let mut best: Option<(f32, f32, f32, u32)> = None;
+        let mut closest = t_max;
+        self.traverse(ray, &mut closest, |prim_index, t_far| {
+            let p = &self.primitives[prim_index as usize];
+            if let Some((t, u, v)) = p.shape.intersect(ray, t_min, *t_far) {
+                *t_far = t;
+                best = Some((t, u, v, prim_index));
+            }
+            false
+        });
+        best.map(|(t, u, v, i)| self.primitives[i as usize].shape.interaction(ray, t, u, v, i))
+    }
+
+    /// Whether anything blocks the ray within `(t_min, t_max)` (for shadow rays).
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let mut far = t_max;
+        let mut hit = false;
+        self.traverse(ray, &mut far, |prim_index, t_far| {
+            if self.primitives[prim_index as usize].shape.intersect(ray, t_min, *t_far).is_some() {
+                hit = true;
+                return true;
+            }
+            false
+        });
+        hit
+    }
+
+    /// Visits leaves front to back; `visit` may shrink `t_far` and returns true to stop.
+    #[inline]
+    fn traverse(&self, ray: &Ray, t_far: &mut f32, mut visit: impl FnMut(u32, &mut f32) -> bool) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv_dir = ray.direction.recip();
+        let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
+        let mut stack = [0u32; 64];
+        let mut top = 0;
+        let mut current = 0u32;
+        loop {
+            let node = &self.nodes[current as usize];
+            if node.bounds.hit(ray.origin, inv_dir, *t_far).is_some() {
+                if node.count > 0 {
+                    for i in node.offset..node.offset + node.count as u32 {
+                        if visit(i, t_far) {
+                            return;
+                        }
+                    }
+                } else {
+                    // Visit the child on the ray's side of the split first.
+                    let (near, far) = if negative[node.axis as usize] {
+                        (node.offset, current + 1)
+                    } else {
+                        (current + 1, node.offset)
+                    };
+                    stack[top] = far;
+                    top += 1;
+                    current = near;
+                    continue;
+                }
+            }
+            if top == 0 {
+                return;
+            }
+            top -= 1;
+            current = stack[top];
+        }
+    }
+}
+
+/// Builds the subtree of `items` into `nodes`, returning its index. Items are reordered.
+fn build(items: &mut [BuildItem], first: usize, nodes: &mut Vec<Node>) -> u32 {
+    let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
+    let index = nodes.len() as u32;
+    nodes.push(Node { bounds, offset: first as u32, count: items.len() as u16, axis: 0 });
+    if items.len() <= MAX_LEAF {
+        return index;
+    }
+    let centres = items.iter().fold(Aabb::EMPTY, |b, it| b.include(it.centre));
+    let Some((axis, split)) = best_split(items, &centres, &bounds) else {
+        if items.len() <= u16::MAX as usize / 2 {
+            return index; // no split beats a leaf
+        }
+        // Too many for a leaf: split at the median instead.
+        let axis = (centres.max - centres.min).max_position();
+        items.sort_unstable_by(|a, b| a.centre[axis].total_cmp(&b.centre[axis]));
+        return split_at(items, first, items.len() / 2, axis, index, nodes);
+    };
+    let mid = partition(items, |it| bin_of(it.centre[axis], &centres, axis) < split);
+    if mid == 0 || mid == items.len() {
+        return index;
+    }
+    split_at(items, first, mid, axis, index, nodes)
+}
+
+fn split_at(items: &mut [BuildItem], first: usize, mid: usize, axis: usize, index: u32, nodes: &mut Vec<Node>) -> u32 {
+    let (left, right) = items.split_at_mut(mid);
+    build(left, first, nodes);
+    let right_index = build(right, first + mid, nodes);
+    let node = &mut nodes[index as usize];
+    node.offset = right_index;
+    node.count = 0;
+    node.axis = axis as u8;
+    index
+}
+
+fn bin_of(c: f32, centres: &Aabb, axis: usize) -> usize {
+    let extent = centres.max[axis] - centres.min[axis];
+    if extent <= 0.0 {
+        return 0;
+    }
+    (((c - centres.min[axis]) / extent * BINS as f32) as usize).min(BINS - 1)
+}
+
+/// The axis and bin boundary of the cheapest SAH split, if it is cheaper than a leaf.
+fn best_split(items: &[BuildItem], centres: &Aabb, bounds: &Aabb) -> Option<(usize, usize)> {
+    let mut best: Option<(f32, usize, usize)> = None;
+    for axis in 0..3 {
+        if centres.max[axis] - centres.min[axis] <= 0.0 {
+            continue;
+        }
+        let mut bin_bounds = [Aabb::EMPTY; BINS];
+        let mut bin_count = [0usize; BINS];
+        for it in items {
+            let b = bin_of(it.centre[axis], centres, axis);
+            bin_bounds[b] = bin_bounds[b].union(it.bounds);
+            bin_count[b] += 1;
+        }
+        // Sweep from the right to get the suffix areas, then from the left.
+        let mut right_area = [0.0f32; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut count) = (Aabb::EMPTY, 0);
+        for i in (1..BINS).rev() {
+            acc = acc.union(bin_bounds[i]);
+            count += bin_count[i];
+            right_area[i] = acc.area();
+            right_count[i] = count;
+        }
+        let (mut acc, mut count) = (Aabb::EMPTY, 0);
+        for split in 1..BINS {
+            acc = acc.union(bin_bounds[split - 1]);
+            count += bin_count[split - 1];
+            if count == 0 || right_count[split] == 0 {
+                continue;
+            }
+            let cost = acc.area() * count as f32 + right_area[split] * right_count[split] as f32;
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, axis, split));
+            }
+        }
+    }
+    let (cost, axis, split) = best?;
+    let leaf_cost = items.len() as f32;
+    let split_cost = TRAVERSAL_COST + cost / bounds.area().max(f32::MIN_POSITIVE);
+    (split_cost < leaf_cost || items.len() > MAX_LEAF * 4).then_some((axis, split))
+}
+
+fn partition(items: &mut [BuildItem], pred: impl Fn(&BuildItem) -> bool) -> usize {
+    let mut i = 0;
+    for j in 0..items.len() {
+        if pred(&items[j]) {
+            items.swap(i, j);
+            i += 1;
+        }
+    }
+    i
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Shape;
+    use crate::sampling::{Rng, uniform_sphere};
+
+    fn random_spheres(n: usize) -> Vec<Primitive> {
+        let mut rng = Rng::new(9, 0);
+        (0..n)
+            .map(|_| {
+                let centre = (rng.uniform2().extend(rng.uniform()) - 0.5) * 20.0;
+                Primitive {
+                    shape: Shape::Sphere { centre, radius: 0.05 + 0.4 * rng.uniform() },
+                    material: 0,
+                    light: None,
+                    interior_medium: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn bvh_agrees_with_brute_force() {
+        let prims = random_spheres(500);
+        let bvh = Bvh::new(prims.clone());
+        let mut rng = Rng::new(10, 0);
+        for _ in 0..2000 {
+            let origin = (rng.uniform2().extend(rng.uniform()) - 0.5) * 30.0;
+            let ray = Ray::new(origin, uniform_sphere(rng.uniform2()));
+            let brute = prims
+                .iter()
+                .filter_map(|p| p.shape.intersect(&ray, 1e-4, f32::INFINITY).map(|h| h.0))
+                .fold(f32::INFINITY, f32::min);
+            let got = bvh.intersect(&ray, 1e-4, f32::INFINITY).map(|h| h.t).unwrap_or(f32::INFINITY);
+            assert_eq!(got, brute);
+            assert_eq!(bvh.occluded(&ray, 1e-4, f32::INFINITY), brute.is_finite());
+            if brute.is_finite() {
+                assert!(!bvh.occluded(&ray, 1e-4, brute * 0.999));
+            }
+        }
+    }
+}

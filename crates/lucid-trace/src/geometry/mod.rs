@@ -1,0 +1,255 @@
+//! Geometry: primitives (spheres and triangles), their intersection, bounding boxes and the
+//! BVH over them, and procedural meshes.
+
+pub mod bvh;
+pub mod procedural;
+
+use glam::{Vec2, Vec3};
+use lucid_scene::Ray;
+
+pub use bvh::Bvh;
+
+/// An axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    /// Minimum corner.
+    pub min: Vec3,
+    /// Maximum corner.
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The empty box (union identity).
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    /// The union of two boxes.
+    pub fn union(self, other: Aabb) -> Aabb {
+        Aabb { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
+
+    /// The box grown to contain `p`.
+    pub fn include(self, p: Vec3) -> Aabb {
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    /// Centre point.
+    pub fn centre(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    /// Surface area (0 for the empty box).
+    pub fn area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    /// Slab test: the entry distance if the ray meets the box within `(0, t_max)`.
+    #[inline]
+    pub fn hit(&self, origin: Vec3, inv_dir: Vec3, t_max: f32) -> Option<f32> {
+        let t0 = (self.min - origin) * inv_dir;
+        let t1 = (self.max - origin) * inv_dir;
+        let near = t0.min(t1).max_element().max(0.0);
+        let far = t0.max(t1).min_element().min(t_max);
+        (near <= far).then_some(near)
+    }
+}
+
+/// The shape of one primitive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A sphere.
+    Sphere {
+        /// Centre.
+        centre: Vec3,
+        /// Radius.
+        radius: f32,
+    },
+    /// A triangle, with optional per-vertex shading normals and texture coordinates.
+    Triangle {
+        /// Vertex positions.
+        p: [Vec3; 3],
+        /// Per-vertex shading normals.
+        n: Option<[Vec3; 3]>,
+        /// Per-vertex texture coordinates.
+        uv: Option<[Vec2; 3]>,
+    },
+}
+
+/// A primitive of the scene: a shape, its material and, if it emits, its light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Primitive {
+    /// Geometry.
+    pub shape: Shape,
+    /// Index into the scene's materials.
+    pub material: u32,
+    /// Index into the scene's lights when the primitive is part of an area light.
+    pub light: Option<u32>,
+    /// Index into the scene's media for the inside of a closed mesh, if any.
+    pub interior_medium: Option<u32>,
+}
+
+/// Where a ray meets a primitive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Intersection {
+    /// Ray parameter (distance, as rays have unit directions).
+    pub t: f32,
+    /// The point.
+    pub point: Vec3,
+    /// Geometric unit normal (for triangles, from the winding order; for spheres, outward).
+    pub geometric_normal: Vec3,
+    /// Shading unit normal (interpolated where the mesh has normals), on the same side as the
+    /// geometric normal.
+    pub shading_normal: Vec3,
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Which primitive.
+    pub primitive: u32,
+}
+
+impl Shape {
+    /// Bounding box.
+    pub fn bounds(&self) -> Aabb {
+        match *self {
+            Shape::Sphere { centre, radius } => {
+                Aabb { min: centre - Vec3::splat(radius), max: centre + Vec3::splat(radius) }
+            }
+            Shape::Triangle { p, .. } => Aabb::EMPTY.include(p[0]).include(p[1]).include(p[2]),
+        }
+    }
+
+    /// Surface area.
+    pub fn area(&self) -> f32 {
+        match *self {
+            Shape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+            Shape::Triangle { p, .. } => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
+        }
+    }
+
+    /// The nearest intersection with `t` in `(t_min, t_max)`, as `(t, u, v)`: barycentrics for
+    /// triangles, unused for spheres.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        match *self {
+            Shape::Sphere { centre, radius } => {
+                let oc = ray.origin - centre;
+                let b = oc.dot(ray.direction);
+                let c = oc.length_squared() - radius * radius;
+                let disc = b * b - c;
+                if disc < 0.0 {
+                    return None;
+                }
+                let sq = disc.sqrt();
+                // The numerically stable root pair: q = −b ∓ √disc, roots c/q and q.
+                let t0 = -b - sq;
+                let t1 = -b + sq;
+                if t0 > t_min && t0 < t_max {
+                    Some((t0, 0.0, 0.0))
+                } else if t1 > t_min && t1 < t_max {
+                    Some((t1, 0.0, 0.0))
+                } else {
+                    None
+                }
+            }
+            Shape::Triangle { p, .. } => {
+                // Möller–Trumbore.
+                let e1 = p[1] - p[0];
+                let e2 = p[2] - p[0];
+                let pv = ray.direction.cross(e2);
+                let det = e1.dot(pv);
+                if det.abs() < 1e-12 {
+                    return None;
+                }
+                let inv = 1.0 / det;
+                let tv = ray.origin - p[0];
+                let u = tv.dot(pv) * inv;
+                if !(0.0..=1.0).contains(&u) {
+                    return None;
+                }
+                let qv = tv.cross(e1);
+                let v = ray.direction.dot(qv) * inv;
+                if v < 0.0 || u + v > 1.0 {
+                    return None;
+                }
+                let t = e2.dot(qv) * inv;
+                (t > t_min && t < t_max).then_some((t, u, v))
+            }
+        }
+    }
+
+    /// The full record of a hit found by [`Shape::intersect`].
+    pub fn interaction(&self, ray: &Ray, t: f32, u: f32, v: f32, primitive: u32) -> Intersection {
+        let point = ray.at(t);
+        match *self {
+            Shape::Sphere { centre, radius } => {
+                let n = ((point - centre) / radius).normalize();
+                let theta = n.z.clamp(-1.0, 1.0).acos();
+                let phi = n.y.atan2(n.x).rem_euclid(std::f32::consts::TAU);
+                let uv = Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI);
+                // Re-project onto the surface to cut the error of the ray parameter.
+                Intersection { t, point: centre + radius * n, geometric_normal: n, shading_normal: n, uv, primitive }
+            }
+            Shape::Triangle { p, n, uv } => {
+                let w = 1.0 - u - v;
+                let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+                let shading = match n {
+                    Some(n) => {
+                        let s = (w * n[0] + u * n[1] + v * n[2]).normalize_or_zero();
+                        if s == Vec3::ZERO {
+                            ng
+                        } else if s.dot(ng) < 0.0 {
+                            -s
+                        } else {
+                            s
+                        }
+                    }
+                    None => ng,
+                };
+                let tex = match uv {
+                    Some(t) => w * t[0] + u * t[1] + v * t[2],
+                    None => Vec2::new(u, v),
+                };
+                let point = w * p[0] + u * p[1] + v * p[2];
+                Intersection { t, point, geometric_normal: ng, shading_normal: shading, uv: tex, primitive }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_and_triangle_hits() {
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
+        let s = Shape::Sphere { centre: Vec3::ZERO, radius: 1.0 };
+        let (t, _, _) = s.intersect(&ray, 1e-4, f32::INFINITY).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        // From inside, the far root.
+        let inside = Ray::new(Vec3::ZERO, Vec3::X);
+        assert!((s.intersect(&inside, 1e-4, f32::INFINITY).unwrap().0 - 1.0).abs() < 1e-5);
+
+        let tri = Shape::Triangle {
+            p: [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)],
+            n: None,
+            uv: None,
+        };
+        let (t, u, v) = tri.intersect(&ray, 1e-4, f32::INFINITY).unwrap();
+        assert!((t - 5.0).abs() < 1e-5);
+        let hit = tri.interaction(&ray, t, u, v, 0);
+        assert!((hit.point - Vec3::ZERO).length() < 1e-5);
+        assert!((hit.geometric_normal - Vec3::Z).length() < 1e-6, "counter-clockwise winding faces +Z");
+        assert!(tri.intersect(&Ray::new(Vec3::new(2.0, 0.0, 5.0), -Vec3::Z), 1e-4, f32::INFINITY).is_none());
+        assert!((tri.area() - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn slab_test() {
+        let b = Aabb { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) };
+        let d = Vec3::new(0.0, 0.0, -1.0);
+        assert_eq!(b.hit(Vec3::new(0.0, 0.0, 3.0), d.recip(), 10.0), Some(2.0));
+        assert_eq!(b.hit(Vec3::new(0.0, 0.0, 3.0), d.recip(), 1.5), None);
+        assert_eq!(b.hit(Vec3::new(2.0, 0.0, 3.0), d.recip(), 10.0), None);
+        assert!((b.area() - 24.0).abs() < 1e-6);
+    }
+}

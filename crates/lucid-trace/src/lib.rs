@@ -1,0 +1,17 @@
+//! Lucid's physically based path tracer: it renders all training data and every ground
+//! truth, so its correctness is checked against closed forms (white furnace, solid angles,
+//! Fresnel values, pdf normalisation) and against a reference render of the Cornell box.
+
+pub mod bsdf;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+
+pub use integrator::PathTracer;
+pub use material::{Material, Texture};
+pub use render::{RenderCamera, RenderOutput, RenderSettings, render};
+pub use scene::{Emission, Scene, SceneBuilder};

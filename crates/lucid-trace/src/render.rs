@@ -1,0 +1,138 @@
+//! Rendering an image: pixels in parallel (rows with rayon), each with its own random stream
+//! derived from the seed and the pixel index, so the image is bit-identical whatever the
+//! number of threads.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::{Vec2, Vec3};
+use lucid_image::Image;
+use lucid_scene::{Camera, PinholeCamera, ThinLensCamera};
+use rayon::prelude::*;
+
+use crate::integrator::PathTracer;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+
+/// The camera models a render can use.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RenderCamera {
+    /// Everything in focus.
+    Pinhole(PinholeCamera),
+    /// Depth of field.
+    ThinLens(ThinLensCamera),
+}
+
+impl RenderCamera {
+    fn pinhole(&self) -> &PinholeCamera {
+        match self {
+            RenderCamera::Pinhole(c) => c,
+            RenderCamera::ThinLens(c) => &c.pinhole,
+        }
+    }
+
+    fn ray(&self, px: f32, py: f32, lens: Vec2) -> lucid_scene::Ray {
+        match self {
+            RenderCamera::Pinhole(c) => c.generate_ray(px, py, lens),
+            RenderCamera::ThinLens(c) => c.generate_ray(px, py, lens),
+        }
+    }
+}
+
+/// How to render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seed of all random streams.
+    pub seed: u64,
+    /// The integrator.
+    pub integrator: PathTracer,
+}
+
+/// A rendered view: linear HDR colour with alpha, and its auxiliary buffers.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    /// Radiance (straight alpha: the fraction of samples whose camera ray hit geometry).
+    pub colour: Image,
+    /// Depth along the camera's viewing axis, averaged over the samples that hit; 0 on the background.
+    pub depth: Image,
+    /// World-space shading normal of the first hit.
+    pub normal: Image,
+    /// Albedo of the first hit.
+    pub albedo: Image,
+}
+
+/// Renders `scene` through `camera`; `progress(rows_done)` is called as rows finish.
+pub fn render(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> RenderOutput {
+    let k = camera.pinhole().intrinsics;
+    let (w, h) = (k.width as usize, k.height as usize);
+    let forward = camera.pinhole().forward();
+    let spp = settings.spp.max(1);
+    let done = AtomicUsize::new(0);
+    let rows: Vec<Vec<[[f32; 4]; 4]>> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            let row = (0..w).map(|i| render_pixel(scene, camera, settings, forward, spp, i, j, w)).collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            row
+        })
+        .collect();
+    let plane = |c: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.iter().map(|p| p[c])).collect());
+    RenderOutput { colour: plane(0), depth: plane(1), normal: plane(2), albedo: plane(3) }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_pixel(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    forward: Vec3,
+    spp: u32,
+    i: usize,
+    j: usize,
+    width: usize,
+) -> [[f32; 4]; 4] {
+    let mut rng = Rng::new(settings.seed, (j * width + i) as u64);
+    let (mut radiance, mut normal, mut albedo) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+    let (mut alpha, mut depth) = (0.0f32, 0.0f32);
+    for _ in 0..spp {
+        let jitter = rng.uniform2();
+        let lens = rng.uniform2();
+        let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+        let s = settings.integrator.trace(scene, ray, &mut rng);
+        // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
+        // poisoning the pixel; a finite image is part of the contract.
+        if s.radiance.is_finite() {
+            radiance += s.radiance;
+        }
+        if s.alpha > 0.0 {
+            alpha += 1.0;
+            depth += s.distance * ray.direction.dot(forward);
+            normal += s.normal;
+            albedo += s.albedo;
+        }
+    }
+    let n = spp as f32;
+    // Straight alpha: the colour of covered samples is divided by coverage when some samples
+    // miss; background radiance (visible environment) keeps alpha 1 via `hide_emitters` off.
+    let (colour, a) = if settings.integrator.hide_emitters && alpha > 0.0 {
+        (radiance / alpha, alpha / n)
+    } else if settings.integrator.hide_emitters {
+        (Vec3::ZERO, 0.0)
+    } else {
+        (radiance / n, 1.0)
+    };
+    let covered = alpha.max(1.0);
+    let d = depth / covered;
+    [
+        colour.extend(a).to_array(),
+        [d, d, d, a],
+        normal.normalize_or_zero().extend(a).to_array(),
+        (albedo / covered).extend(a).to_array(),
+    ]
+}

@@ -1,0 +1,144 @@
+//! Random numbers and the warps from the unit square that the renderer samples with.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI, TAU};
+
+/// PCG32 (O'Neill): small state, good statistics, and cheap to seed per pixel, which is
+/// how renders stay identical whatever the thread count.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    increment: u64,
+}
+
+impl Rng {
+    /// A generator for stream `stream` of `seed` (e.g. the pixel index).
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut rng = Self { state: 0, increment: (stream << 1) | 1 };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(mix(seed));
+        rng.next_u32();
+        rng
+    }
+
+    /// The next 32 random bits.
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.increment);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn uniform(&mut self) -> f32 {
+        // 24 bits fill an f32 mantissa exactly, so the result is never 1.
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    /// Two uniforms.
+    pub fn uniform2(&mut self) -> Vec2 {
+        Vec2::new(self.uniform(), self.uniform())
+    }
+}
+
+/// SplitMix64 finaliser: spreads nearby seeds far apart.
+pub fn mix(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// Cosine-weighted direction on the hemisphere around +Z (Malley's method).
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = lucid_scene::sampling::concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Density of [`cosine_hemisphere`] in solid angle: `cos θ / π`.
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the unit sphere.
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = TAU * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Density of [`uniform_sphere`]: `1 / 4π`.
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform barycentrics `(b0, b1)` on a triangle (the square-root parametrisation).
+pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
+    let s = u.x.sqrt();
+    (1.0 - s, u.y * s)
+}
+
+/// Veach's power heuristic with β = 2 for one sample from each of two strategies.
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
+    if a + b == 0.0 { 0.0 } else { a / (a + b) }
+}
+
+/// An orthonormal basis with `n` as its z axis (Duff et al. 2017, branchless).
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rng_is_uniform_and_streams_differ() {
+        let mut rng = Rng::new(42, 7);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        let mut buckets = [0u32; 10];
+        for _ in 0..n {
+            let u = rng.uniform();
+            assert!((0.0..1.0).contains(&u));
+            sum += u as f64;
+            buckets[(u * 10.0) as usize] += 1;
+        }
+        assert!((sum / n as f64 - 0.5).abs() < 0.003);
+        for b in buckets {
+            assert!((b as f64 / n as f64 - 0.1).abs() < 0.003, "{buckets:?}");
+        }
+        let a: Vec<u32> = (0..4).map(|_| Rng::new(1, 0).next_u32()).collect();
+        assert_eq!(a[0], a[1], "same seed and stream, same numbers");
+        assert_ne!(Rng::new(1, 0).next_u32(), Rng::new(1, 1).next_u32());
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::new(0.3, -0.5, 0.81).normalize(), Vec3::new(1.0, 0.0, 0.0)] {
+            let (t, b) = orthonormal_basis(n);
+            assert!(t.dot(b).abs() < 1e-6 && t.dot(n).abs() < 1e-6 && b.dot(n).abs() < 1e-6);
+            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
+            assert!((t.cross(b) - n).length() < 1e-5, "right-handed");
+        }
+    }
+
+    #[test]
+    fn cosine_sampling_has_the_mean_cosine_of_its_density() {
+        // Under p = cos θ / π the mean of cos θ is ∫cos² θ/π dω = 2/3.
+        let mut rng = Rng::new(3, 3);
+        let n = 200_000;
+        let mut mean_cos = 0.0f64;
+        for _ in 0..n {
+            let d = cosine_hemisphere(rng.uniform2());
+            assert!(d.z >= 0.0 && (d.length() - 1.0).abs() < 1e-4);
+            mean_cos += d.z as f64;
+        }
+        assert!((mean_cos / n as f64 - 2.0 / 3.0).abs() < 0.003);
+    }
+}

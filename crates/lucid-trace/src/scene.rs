@@ -1,0 +1,133 @@
+//! The renderable scene: primitives in a BVH, materials and lights, built with
+//! [`SceneBuilder`].
+
+use glam::Vec3;
+
+use crate::geometry::procedural::TriangleMesh;
+use crate::geometry::{Bvh, Primitive, Shape};
+use crate::light::Light;
+use crate::material::Material;
+
+/// Everything the integrator needs.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Geometry (primitives in BVH order).
+    pub bvh: Bvh,
+    /// Materials, indexed by [`Primitive::material`].
+    pub materials: Vec<Material>,
+    /// Lights, indexed by [`Primitive::light`] for area lights.
+    pub lights: Vec<Light>,
+    /// Index of the environment light, if any.
+    pub environment: Option<usize>,
+    /// Radius of a sphere around the scene's geometry.
+    pub radius: f32,
+}
+
+enum PendingLight {
+    Ready(Light),
+    Area { radiance: Vec3, two_sided: bool },
+}
+
+/// Collects shapes, materials and lights, then builds the BVH and the area lights.
+#[derive(Default)]
+pub struct SceneBuilder {
+    primitives: Vec<Primitive>,
+    materials: Vec<Material>,
+    lights: Vec<PendingLight>,
+}
+
+/// What a shape emits, if anything.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emission {
+    /// Radiance.
+    pub radiance: Vec3,
+    /// Both sides emit.
+    pub two_sided: bool,
+}
+
+impl SceneBuilder {
+    /// An empty builder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a material and returns its index.
+    pub fn material(&mut self, material: Material) -> u32 {
+        self.materials.push(material);
+        (self.materials.len() - 1) as u32
+    }
+
+    /// Adds a point, spot, directional or environment light.
+    pub fn light(&mut self, light: Light) {
+        self.lights.push(PendingLight::Ready(light));
+    }
+
+    fn area_light(&mut self, emission: Option<Emission>) -> Option<u32> {
+        emission.filter(|e| e.radiance.max_element() > 0.0).map(|e| {
+            self.lights.push(PendingLight::Area { radiance: e.radiance, two_sided: e.two_sided });
+            (self.lights.len() - 1) as u32
+        })
+    }
+
+    /// Adds a triangle mesh; an emissive one becomes one area light.
+    pub fn mesh(&mut self, mesh: &TriangleMesh, material: u32, emission: Option<Emission>) {
+        let light = self.area_light(emission);
+        let has_normals = mesh.normals.len() == mesh.positions.len();
+        let has_uvs = mesh.uvs.len() == mesh.positions.len();
+        for tri in &mesh.indices {
+            let p = tri.map(|i| mesh.positions[i as usize]);
+            if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+                continue; // degenerate: no area, never hit, would break area sampling
+            }
+            let n = has_normals.then(|| tri.map(|i| mesh.normals[i as usize]));
+            let uv = has_uvs.then(|| tri.map(|i| mesh.uvs[i as usize]));
+            self.primitives.push(Primitive {
+                shape: Shape::Triangle { p, n, uv },
+                material,
+                light,
+                interior_medium: None,
+            });
+        }
+    }
+
+    /// Adds a sphere.
+    pub fn sphere(&mut self, centre: Vec3, radius: f32, material: u32, emission: Option<Emission>) {
+        let light = self.area_light(emission);
+        self.primitives.push(Primitive {
+            shape: Shape::Sphere { centre, radius },
+            material,
+            light,
+            interior_medium: None,
+        });
+    }
+
+    /// Builds the scene.
+    pub fn build(self) -> Scene {
+        let bvh = Bvh::new(self.primitives);
+        let bounds = bvh.bounds();
+        let radius = if bounds.min.x.is_finite() { 0.5 * (bounds.max - bounds.min).length() } else { 1.0 };
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); self.lights.len()];
+        for (i, p) in bvh.primitives().iter().enumerate() {
+            if let Some(l) = p.light {
+                members[l as usize].push(i as u32);
+            }
+        }
+        let mut environment = None;
+        let lights = self
+            .lights
+            .into_iter()
+            .zip(members)
+            .enumerate()
+            .map(|(i, (pending, prims))| match pending {
+                PendingLight::Ready(light) => {
+                    if matches!(light, Light::ConstantEnvironment { .. }) {
+                        environment = Some(i);
+                    }
+                    light
+                }
+                PendingLight::Area { radiance, two_sided } => Light::area(bvh.primitives(), prims, radiance, two_sided),
+            })
+            .collect();
+        Scene { bvh, materials: self.materials, lights, environment, radius }
+    }
+}
