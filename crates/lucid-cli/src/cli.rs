@@ -32,6 +32,35 @@ pub enum Command {
     Metrics(MetricsArgs),
     /// Describe a dataset folder (transforms_*.json): frames, resolution, intrinsics, bounds.
     Info(InfoArgs),
+    /// Path-trace a scene file (configs/scenes/*.toml) to EXR + PNG with depth, normal and
+    /// albedo buffers.
+    Render(RenderArgs),
+}
+
+/// `lucid render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// The scene description (TOML).
+    pub scene: PathBuf,
+    /// Output image (.exr or .png); the other format and the `_depth`, `_normal`, `_albedo`
+    /// EXR buffers are written beside it.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel (overrides the scene's integrator.spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Image width (overrides the camera's; the horizontal field of view is kept).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (overrides the camera's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Seed of the random streams (overrides the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Longest path in segments (overrides the scene's).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
 }
 
 /// `lucid demo`.

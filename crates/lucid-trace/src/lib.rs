@@ -10,8 +10,10 @@ pub mod material;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod scene_file;
 
 pub use integrator::PathTracer;
 pub use material::{Material, Texture};
 pub use render::{RenderCamera, RenderOutput, RenderSettings, render};
 pub use scene::{Emission, Scene, SceneBuilder};
+pub use scene_file::{LoadedScene, SceneFileError, load_scene, parse_scene};

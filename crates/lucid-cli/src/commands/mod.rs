@@ -4,6 +4,7 @@ mod convert;
 mod demo;
 mod info;
 mod metrics;
+mod render;
 
 use anyhow::{Context, bail};
 
@@ -16,6 +17,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Convert(args) => convert::run(args),
         Command::Metrics(args) => metrics::run(args),
         Command::Info(args) => info::run(args),
+        Command::Render(args) => render::run(args),
     }
 }
 

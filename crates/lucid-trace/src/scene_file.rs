@@ -1,0 +1,511 @@
+//! The scene description format: TOML with a camera, an integrator, named materials, shapes
+//! and lights. Unknown keys, wrong types, and non-finite or out-of-range values are errors
+//! naming the file and the key.
+//!
+//! ```toml
+//! [camera]                       # pinhole unless aperture_radius > 0
+//! position = [0, 0, 3.9]
+//! look_at = [0, 0, 0]
+//! up = [0, 1, 0]
+//! fov = 39.3077                  # horizontal, degrees
+//! width = 256
+//! height = 256
+//! aperture_radius = 0.0          # thin lens when > 0
+//! focus_distance = 3.9
+//!
+//! [integrator]
+//! spp = 64
+//! max_depth = 8                  # path segments, camera ray included
+//! rr_depth = 5
+//! hide_emitters = false
+//! seed = 0
+//!
+//! [materials.white]
+//! type = "lambertian"            # lambertian | conductor | dielectric | plastic
+//! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard
+//!
+//! [[shapes]]
+//! type = "quad"                  # quad | cube | sphere | torus | torus_knot
+//! material = "white"
+//! translate = [0, -1, 0]         # transform: scale, then rotate (degrees about x, y, z), then translate
+//! rotate = [-90, 0, 0]
+//! scale = [1, 1, 1]
+//! emission = [0, 0, 0]           # radiance; > 0 makes the shape an area light
+//!
+//! [[lights]]
+//! type = "point"                 # point | spot | directional | environment
+//! position = [0, 2, 0]
+//! intensity = [10, 10, 10]
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
+use lucid_scene::{Intrinsics, PinholeCamera, ThinLensCamera, look_at};
+use serde::Deserialize;
+
+use crate::geometry::procedural::{self, TriangleMesh};
+use crate::integrator::PathTracer;
+use crate::light::Light;
+use crate::material::{Material, Texture};
+use crate::render::{RenderCamera, RenderSettings};
+use crate::scene::{Emission, Scene, SceneBuilder};
+
+/// Why a scene file could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneFileError {
+    /// Reading failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// TOML syntax or schema error (the message has the key and line).
+    #[error("{}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("{}: {key}: {reason}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// The key, e.g. `shapes[2].material`.
+        key: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: CameraSection,
+    #[serde(default)]
+    integrator: IntegratorSection,
+    #[serde(default)]
+    materials: BTreeMap<String, MaterialSection>,
+    #[serde(default)]
+    shapes: Vec<ShapeSection>,
+    #[serde(default)]
+    lights: Vec<LightSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraSection {
+    position: [f32; 3],
+    look_at: [f32; 3],
+    #[serde(default = "default_up")]
+    up: [f32; 3],
+    fov: f32,
+    width: u32,
+    height: u32,
+    #[serde(default)]
+    aperture_radius: f32,
+    focus_distance: Option<f32>,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct IntegratorSection {
+    spp: u32,
+    max_depth: u32,
+    rr_depth: u32,
+    hide_emitters: bool,
+    seed: u64,
+}
+
+impl Default for IntegratorSection {
+    fn default() -> Self {
+        let p = PathTracer::default();
+        Self { spp: 16, max_depth: p.max_depth, rr_depth: p.rr_depth, hide_emitters: p.hide_emitters, seed: 0 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum ColourOrChecker {
+    Colour([f32; 3]),
+    Checker { a: [f32; 3], b: [f32; 3], scale: f32 },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+enum MaterialSection {
+    Lambertian {
+        albedo: ColourOrChecker,
+    },
+    Conductor {
+        eta: [f32; 3],
+        k: [f32; 3],
+        #[serde(default)]
+        roughness: f32,
+        anisotropy: Option<f32>,
+    },
+    Dielectric {
+        #[serde(default = "default_ior")]
+        ior: f32,
+        transmittance: Option<[f32; 3]>,
+    },
+    Plastic {
+        albedo: ColourOrChecker,
+        #[serde(default = "default_ior")]
+        ior: f32,
+    },
+}
+
+fn default_ior() -> f32 {
+    1.5
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShapeSection {
+    #[serde(rename = "type")]
+    kind: String,
+    material: String,
+    #[serde(default)]
+    translate: Option<[f32; 3]>,
+    #[serde(default)]
+    rotate: Option<[f32; 3]>,
+    #[serde(default)]
+    scale: Option<ScaleValue>,
+    #[serde(default)]
+    matrix: Option<[[f32; 4]; 4]>,
+    #[serde(default)]
+    emission: Option<[f32; 3]>,
+    #[serde(default)]
+    two_sided: bool,
+    // Shape parameters.
+    radius: Option<f32>,
+    minor_radius: Option<f32>,
+    p: Option<u32>,
+    q: Option<u32>,
+    segments: Option<u32>,
+    sides: Option<u32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum ScaleValue {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+enum LightSection {
+    Point { position: [f32; 3], intensity: [f32; 3] },
+    Spot { position: [f32; 3], look_at: [f32; 3], intensity: [f32; 3], cone_angle: f32, falloff_angle: Option<f32> },
+    Directional { direction: [f32; 3], irradiance: [f32; 3] },
+    Environment { radiance: [f32; 3] },
+}
+
+/// A loaded scene with its camera and render settings.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    /// The geometry, materials and lights.
+    pub scene: Scene,
+    /// The camera.
+    pub camera: RenderCamera,
+    /// Samples, seed and integrator settings.
+    pub settings: RenderSettings,
+}
+
+/// Reads and validates a scene file.
+pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneFileError> {
+    let text =
+        std::fs::read_to_string(path).map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
+    parse_scene(&text, path)
+}
+
+/// Parses scene text; `path` is only used in error messages.
+pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene, SceneFileError> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| SceneFileError::Parse {
+        path: path.to_path_buf(),
+        message: e.to_string().trim().replace('\n', " "),
+    })?;
+    Builder { path }.build(file)
+}
+
+struct Builder<'a> {
+    path: &'a Path,
+}
+
+impl Builder<'_> {
+    fn invalid(&self, key: impl Into<String>, reason: impl Into<String>) -> SceneFileError {
+        SceneFileError::Invalid { path: self.path.to_path_buf(), key: key.into(), reason: reason.into() }
+    }
+
+    fn finite(&self, key: &str, v: &[f32]) -> Result<(), SceneFileError> {
+        if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(self.invalid(key, "values must be finite numbers")) }
+    }
+
+    fn colour(&self, key: &str, c: [f32; 3]) -> Result<Vec3, SceneFileError> {
+        self.finite(key, &c)?;
+        if c.iter().any(|&x| x < 0.0) {
+            return Err(self.invalid(key, "colour components must not be negative"));
+        }
+        Ok(Vec3::from(c))
+    }
+
+    fn albedo(&self, key: &str, c: &ColourOrChecker) -> Result<Texture, SceneFileError> {
+        let check = |v: Vec3| -> Result<Vec3, SceneFileError> {
+            if v.max_element() > 1.0 { Err(self.invalid(key, "albedo above 1 would create energy")) } else { Ok(v) }
+        };
+        Ok(match c {
+            ColourOrChecker::Colour(c) => Texture::Constant(check(self.colour(key, *c)?)?),
+            ColourOrChecker::Checker { a, b, scale } => {
+                if !(scale.is_finite() && *scale > 0.0) {
+                    return Err(self.invalid(key, "checker scale must be positive"));
+                }
+                Texture::Checker { a: check(self.colour(key, *a)?)?, b: check(self.colour(key, *b)?)?, scale: *scale }
+            }
+        })
+    }
+
+    fn build(&self, file: SceneFile) -> Result<LoadedScene, SceneFileError> {
+        let camera = self.camera(&file.camera)?;
+        let i = &file.integrator;
+        if i.spp == 0 || i.max_depth == 0 {
+            return Err(self.invalid("integrator", "spp and max_depth must be at least 1"));
+        }
+        let settings = RenderSettings {
+            spp: i.spp,
+            seed: i.seed,
+            integrator: PathTracer { max_depth: i.max_depth, rr_depth: i.rr_depth, hide_emitters: i.hide_emitters },
+        };
+        let mut builder = SceneBuilder::new();
+        let mut ids = BTreeMap::new();
+        for (name, m) in &file.materials {
+            ids.insert(name.clone(), builder.material(self.material(&format!("materials.{name}"), m)?));
+        }
+        for (k, s) in file.shapes.iter().enumerate() {
+            self.shape(&mut builder, &ids, &format!("shapes[{k}]"), s)?;
+        }
+        for (k, l) in file.lights.iter().enumerate() {
+            builder.light(self.light(&format!("lights[{k}]"), l)?);
+        }
+        Ok(LoadedScene { scene: builder.build(), camera, settings })
+    }
+
+    fn camera(&self, c: &CameraSection) -> Result<RenderCamera, SceneFileError> {
+        self.finite("camera", &[c.position, c.look_at, c.up].concat())?;
+        if !(c.fov > 0.0 && c.fov < 180.0) {
+            return Err(self.invalid("camera.fov", format!("must be in (0, 180) degrees, got {}", c.fov)));
+        }
+        if c.width == 0 || c.height == 0 || c.width > 16384 || c.height > 16384 {
+            return Err(self.invalid("camera.width", "image size must be 1..=16384 pixels per side"));
+        }
+        let (eye, target, up) = (Vec3::from(c.position), Vec3::from(c.look_at), Vec3::from(c.up));
+        if (target - eye).length() == 0.0 || (target - eye).normalize().cross(up.normalize_or_zero()).length() < 1e-4 {
+            return Err(self.invalid("camera.up", "must not be parallel to the viewing direction"));
+        }
+        let pinhole =
+            PinholeCamera::new(Intrinsics::from_fov_x(c.width, c.height, c.fov.to_radians()), look_at(eye, target, up));
+        if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
+            return Err(self.invalid("camera.aperture_radius", "must be a non-negative number"));
+        }
+        if c.aperture_radius == 0.0 {
+            return Ok(RenderCamera::Pinhole(pinhole));
+        }
+        let focus = c.focus_distance.unwrap_or((target - eye).length());
+        if !(focus.is_finite() && focus > 0.0) {
+            return Err(self.invalid("camera.focus_distance", "must be positive"));
+        }
+        Ok(RenderCamera::ThinLens(ThinLensCamera::new(pinhole, c.aperture_radius, focus)))
+    }
+
+    fn material(&self, key: &str, m: &MaterialSection) -> Result<Material, SceneFileError> {
+        let ior = |v: f32| -> Result<f32, SceneFileError> {
+            if v.is_finite() && v > 1.0 && v < 5.0 {
+                Ok(v)
+            } else {
+                Err(self.invalid(format!("{key}.ior"), "must be in (1, 5)"))
+            }
+        };
+        Ok(match m {
+            MaterialSection::Lambertian { albedo } => {
+                Material::Lambertian { albedo: self.albedo(&format!("{key}.albedo"), albedo)? }
+            }
+            MaterialSection::Conductor { eta, k, roughness, anisotropy } => {
+                if !(roughness.is_finite() && (0.0..=1.0).contains(roughness)) {
+                    return Err(self.invalid(format!("{key}.roughness"), "must be in [0, 1]"));
+                }
+                let aniso = anisotropy.unwrap_or(0.0);
+                if !(aniso.is_finite() && (-0.95..=0.95).contains(&aniso)) {
+                    return Err(self.invalid(format!("{key}.anisotropy"), "must be in [-0.95, 0.95]"));
+                }
+                // Burley's anisotropy mapping of α = roughness².
+                let a = roughness * roughness;
+                let aspect = (1.0 - 0.9 * aniso.abs()).sqrt();
+                let alpha =
+                    if aniso >= 0.0 { Vec2::new(a / aspect, a * aspect) } else { Vec2::new(a * aspect, a / aspect) };
+                Material::Conductor {
+                    eta: self.colour(&format!("{key}.eta"), *eta)?,
+                    k: self.colour(&format!("{key}.k"), *k)?,
+                    alpha,
+                }
+            }
+            MaterialSection::Dielectric { ior: v, transmittance } => Material::Dielectric {
+                eta: ior(*v)?,
+                transmittance: self.colour(&format!("{key}.transmittance"), transmittance.unwrap_or([1.0; 3]))?,
+            },
+            MaterialSection::Plastic { albedo, ior: v } => {
+                Material::Plastic { albedo: self.albedo(&format!("{key}.albedo"), albedo)?, eta: ior(*v)? }
+            }
+        })
+    }
+
+    fn transform(&self, key: &str, s: &ShapeSection) -> Result<Mat4, SceneFileError> {
+        if let Some(m) = s.matrix {
+            if s.translate.is_some() || s.rotate.is_some() || s.scale.is_some() {
+                return Err(self.invalid(format!("{key}.matrix"), "give either matrix or translate/rotate/scale"));
+            }
+            self.finite(&format!("{key}.matrix"), &m.concat())?;
+            let m = Mat4::from_cols_array_2d(&m).transpose();
+            if m.determinant().abs() < 1e-12 {
+                return Err(self.invalid(format!("{key}.matrix"), "is singular"));
+            }
+            return Ok(m);
+        }
+        let t = Vec3::from(s.translate.unwrap_or([0.0; 3]));
+        let r = s.rotate.unwrap_or([0.0; 3]);
+        let scale = match s.scale {
+            None => Vec3::ONE,
+            Some(ScaleValue::Uniform(v)) => Vec3::splat(v),
+            Some(ScaleValue::PerAxis(v)) => Vec3::from(v),
+        };
+        self.finite(key, &[t.to_array(), r, scale.to_array()].concat())?;
+        if scale.abs().min_element() == 0.0 {
+            return Err(self.invalid(format!("{key}.scale"), "must not be zero"));
+        }
+        let rot = Quat::from_euler(EulerRot::ZYX, r[2].to_radians(), r[1].to_radians(), r[0].to_radians());
+        Ok(Mat4::from_scale_rotation_translation(scale, rot, t))
+    }
+
+    fn shape(
+        &self,
+        builder: &mut SceneBuilder,
+        ids: &BTreeMap<String, u32>,
+        key: &str,
+        s: &ShapeSection,
+    ) -> Result<(), SceneFileError> {
+        let material = *ids
+            .get(&s.material)
+            .ok_or_else(|| self.invalid(format!("{key}.material"), format!("no material named {:?}", s.material)))?;
+        let emission = match s.emission {
+            Some(e) => Some(Emission { radiance: self.colour(&format!("{key}.emission"), e)?, two_sided: s.two_sided }),
+            None => None,
+        };
+        let m = self.transform(key, s)?;
+        let positive = |name: &str, v: Option<f32>, default: f32| -> Result<f32, SceneFileError> {
+            let v = v.unwrap_or(default);
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(self.invalid(format!("{key}.{name}"), "must be positive"))
+            }
+        };
+        let count = |name: &str, v: Option<u32>, default: u32| -> Result<u32, SceneFileError> {
+            let v = v.unwrap_or(default);
+            if (3..=4096).contains(&v) {
+                Ok(v)
+            } else {
+                Err(self.invalid(format!("{key}.{name}"), "must be in 3..=4096"))
+            }
+        };
+        let mesh: TriangleMesh = match s.kind.as_str() {
+            "sphere" => {
+                let r = positive("radius", s.radius, 1.0)?;
+                // Spheres stay analytic: transform the centre, scale the radius uniformly.
+                let (scale, _, centre) = m.to_scale_rotation_translation();
+                if (scale.x - scale.y).abs() > 1e-5 * scale.x.abs() || (scale.x - scale.z).abs() > 1e-5 * scale.x.abs()
+                {
+                    return Err(self.invalid(format!("{key}.scale"), "a sphere needs a uniform scale"));
+                }
+                builder.sphere(centre, r * scale.x.abs(), material, emission);
+                return Ok(());
+            }
+            "quad" => procedural::quad(),
+            "cube" => procedural::cube(),
+            "torus" => procedural::torus(
+                positive("radius", s.radius, 1.0)?,
+                positive("minor_radius", s.minor_radius, 0.25)?,
+                count("segments", s.segments, 96)?,
+                count("sides", s.sides, 32)?,
+            ),
+            "torus_knot" => procedural::torus_knot(
+                s.p.unwrap_or(2).max(1),
+                s.q.unwrap_or(3).max(1),
+                positive("radius", s.radius, 1.0)?,
+                positive("minor_radius", s.minor_radius, 0.15)?,
+                count("segments", s.segments, 256)?,
+                count("sides", s.sides, 16)?,
+            ),
+            other => {
+                return Err(self.invalid(
+                    format!("{key}.type"),
+                    format!("unknown shape {other:?} (expected quad, cube, sphere, torus or torus_knot)"),
+                ));
+            }
+        };
+        builder.mesh(&mesh.transformed(&m), material, emission);
+        Ok(())
+    }
+
+    fn light(&self, key: &str, l: &LightSection) -> Result<Light, SceneFileError> {
+        Ok(match l {
+            LightSection::Point { position, intensity } => {
+                self.finite(key, position)?;
+                Light::Point {
+                    position: Vec3::from(*position),
+                    intensity: self.colour(&format!("{key}.intensity"), *intensity)?,
+                }
+            }
+            LightSection::Spot { position, look_at, intensity, cone_angle, falloff_angle } => {
+                self.finite(key, &[*position, *look_at].concat())?;
+                let outer = *cone_angle;
+                let inner = falloff_angle.unwrap_or(outer * 0.8);
+                if !(outer > 0.0 && outer <= 90.0 && inner >= 0.0 && inner <= outer) {
+                    return Err(
+                        self.invalid(format!("{key}.cone_angle"), "need 0 < falloff_angle ≤ cone_angle ≤ 90 degrees")
+                    );
+                }
+                let direction = (Vec3::from(*look_at) - Vec3::from(*position)).normalize_or_zero();
+                if direction == Vec3::ZERO {
+                    return Err(self.invalid(format!("{key}.look_at"), "must differ from position"));
+                }
+                Light::Spot {
+                    position: Vec3::from(*position),
+                    direction,
+                    intensity: self.colour(&format!("{key}.intensity"), *intensity)?,
+                    cos_inner: inner.to_radians().cos(),
+                    cos_outer: outer.to_radians().cos(),
+                }
+            }
+            LightSection::Directional { direction, irradiance } => {
+                self.finite(key, direction)?;
+                let d = Vec3::from(*direction).normalize_or_zero();
+                if d == Vec3::ZERO {
+                    return Err(self.invalid(format!("{key}.direction"), "must not be zero"));
+                }
+                Light::Directional { direction: d, irradiance: self.colour(&format!("{key}.irradiance"), *irradiance)? }
+            }
+            LightSection::Environment { radiance } => {
+                Light::ConstantEnvironment { radiance: self.colour(&format!("{key}.radiance"), *radiance)? }
+            }
+        })
+    }
+}

@@ -1,0 +1,150 @@
+//! Scene files: a valid one builds what it says; every kind of mistake is an error naming
+//! the file and the key.
+
+use std::path::Path;
+
+use glam::Vec3;
+use lucid_trace::light::Light;
+use lucid_trace::{RenderCamera, parse_scene};
+
+const CAMERA: &str = r#"
+[camera]
+position = [0.0, -4.0, 1.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+width = 32
+height = 24
+"#;
+
+fn scene(rest: &str) -> String {
+    format!("{CAMERA}\n{rest}")
+}
+
+#[test]
+fn a_valid_scene_builds_materials_shapes_and_lights() {
+    let text = scene(
+        r#"
+[integrator]
+spp = 3
+max_depth = 4
+seed = 9
+
+[materials.matte]
+type = "lambertian"
+albedo = { a = [0.8, 0.8, 0.8], b = [0.1, 0.1, 0.1], scale = 4.0 }
+
+[materials.gold]
+type = "conductor"
+eta = [0.143, 0.374, 1.442]
+k = [3.983, 2.385, 1.603]
+roughness = 0.3
+
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+
+[[shapes]]
+type = "sphere"
+material = "glass"
+radius = 0.5
+translate = [0.0, 0.0, 0.5]
+
+[[shapes]]
+type = "torus_knot"
+material = "gold"
+scale = 0.5
+
+[[shapes]]
+type = "quad"
+material = "matte"
+scale = 3.0
+emission = [0.0, 0.0, 0.0]
+
+[[lights]]
+type = "directional"
+direction = [0.3, -0.2, 1.0]
+irradiance = [3.0, 3.0, 3.0]
+
+[[lights]]
+type = "environment"
+radiance = [0.2, 0.25, 0.3]
+"#,
+    );
+    let loaded = parse_scene(&text, Path::new("ok.toml")).unwrap();
+    assert_eq!((loaded.settings.spp, loaded.settings.integrator.max_depth, loaded.settings.seed), (3, 4, 9));
+    assert_eq!(loaded.scene.materials.len(), 3);
+    assert_eq!(loaded.scene.lights.len(), 2);
+    assert!(matches!(loaded.scene.lights[1], Light::ConstantEnvironment { .. }));
+    assert_eq!(loaded.scene.environment, Some(1));
+    let RenderCamera::Pinhole(cam) = loaded.camera else { panic!("pinhole expected") };
+    assert_eq!((cam.intrinsics.width, cam.intrinsics.height), (32, 24));
+    assert!((cam.position() - Vec3::new(0.0, -4.0, 1.0)).length() < 1e-6);
+    // A zero emission is not a light; the sphere is analytic, the rest triangles.
+    let spheres = loaded
+        .scene
+        .bvh
+        .primitives()
+        .iter()
+        .filter(|p| matches!(p.shape, lucid_trace::geometry::Shape::Sphere { .. }))
+        .count();
+    assert_eq!(spheres, 1);
+}
+
+#[test]
+fn thin_lens_when_the_aperture_is_open() {
+    let text = CAMERA.replace("height = 24", "height = 24\naperture_radius = 0.1\nfocus_distance = 3.0");
+    let loaded = parse_scene(&text, Path::new("lens.toml")).unwrap();
+    let RenderCamera::ThinLens(c) = loaded.camera else { panic!("thin lens expected") };
+    assert_eq!((c.aperture_radius, c.focus_distance), (0.1, 3.0));
+}
+
+#[test]
+fn mistakes_name_the_file_and_key() {
+    let cases: Vec<(String, &[&str])> = vec![
+        ("[camera]\nposition = [0.0, 0.0, 1.0]".to_string(), &["missing field", "look_at"]),
+        (scene("[integrator]\nspp = 0"), &["integrator", "at least 1"]),
+        (scene("[integrator]\nsamples = 4"), &["unknown field", "samples"]),
+        (CAMERA.replace("fov = 40.0", "fov = nan"), &["camera.fov"]),
+        (CAMERA.replace("fov = 40.0", "fov = 200.0"), &["camera.fov", "(0, 180)"]),
+        (scene("[materials.a]\ntype = \"lambertian\"\nalbedo = [1.5, 0.5, 0.5]"), &["materials.a.albedo", "energy"]),
+        (scene("[materials.a]\ntype = \"lambertian\"\nalbedo = [-0.1, 0.5, 0.5]"), &["materials.a.albedo", "negative"]),
+        (scene("[materials.a]\ntype = \"velvet\""), &["unknown variant", "velvet"]),
+        (scene("[materials.a]\ntype = \"dielectric\"\nior = 0.5"), &["materials.a.ior"]),
+        (scene("[[shapes]]\ntype = \"quad\"\nmaterial = \"nope\""), &["shapes[0].material", "no material named"]),
+        (
+            scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"teapot\"\nmaterial = \"a\"",
+            ),
+            &["shapes[0].type", "unknown shape"],
+        ),
+        (
+            scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"quad\"\nmaterial = \"a\"\nscale = 0.0",
+            ),
+            &["shapes[0].scale", "zero"],
+        ),
+        (
+            scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"a\"\nscale = [1.0, 2.0, 1.0]",
+            ),
+            &["shapes[0].scale", "uniform"],
+        ),
+        (
+            scene("[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 1.0]\nintensity = [-1.0, 1.0, 1.0]"),
+            &["lights[0].intensity"],
+        ),
+        (
+            scene("[[lights]]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]"),
+            &["lights[0].direction"],
+        ),
+        (scene("this is = not toml ["), &["bad.toml"]),
+    ];
+    for (text, needles) in cases {
+        let err = parse_scene(&text, Path::new("bad.toml")).expect_err("must fail").to_string();
+        assert!(err.starts_with("bad.toml: "), "{err}");
+        for needle in needles {
+            assert!(err.contains(needle), "{err:?} lacks {needle:?}");
+        }
+        assert!(!err.contains('\n'), "one line: {err:?}");
+    }
+}
