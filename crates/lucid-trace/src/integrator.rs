@@ -54,9 +54,15 @@ struct Frame {
 }
 
 impl Frame {
-    fn new(n: Vec3) -> Self {
-        let (t, b) = orthonormal_basis(n);
-        Self { t, b, n }
+    /// The frame around `n` whose x axis is `tangent` made orthogonal to it.
+    fn new(n: Vec3, tangent: Vec3) -> Self {
+        match (tangent - n * n.dot(tangent)).try_normalize() {
+            Some(t) => Self { t, b: n.cross(t), n },
+            None => {
+                let (t, b) = orthonormal_basis(n);
+                Self { t, b, n }
+            }
+        }
     }
     fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
@@ -129,7 +135,7 @@ impl PathTracer {
                 break;
             }
             let bsdf = material.bsdf(hit.uv);
-            let frame = Frame::new(hit.shading_normal);
+            let frame = Frame::new(hit.shading_normal, hit.tangent);
             let wo = frame.to_local(-ray.direction);
 
             // Next-event estimation: one light, picked uniformly.

@@ -21,7 +21,8 @@
 //! seed = 0
 //!
 //! [materials.white]
-//! type = "lambertian"            # lambertian | conductor | dielectric | plastic
+//! type = "lambertian"            # lambertian | conductor | dielectric | plastic | phong | blinn_phong
+//!                                # | lafortune | ward | ashikhmin_shirley | cook_torrance
 //! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard
 //!
 //! [[shapes]]
@@ -45,6 +46,7 @@ use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
 use lucid_scene::{Intrinsics, PinholeCamera, ThinLensCamera, look_at};
 use serde::Deserialize;
 
+use crate::bsdf::LafortuneTerm;
 use crate::geometry::procedural::{self, TriangleMesh};
 use crate::integrator::PathTracer;
 use crate::light::Light;
@@ -163,6 +165,47 @@ enum MaterialSection {
         #[serde(default = "default_ior")]
         ior: f32,
     },
+    Phong {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        exponent: f32,
+    },
+    BlinnPhong {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        exponent: f32,
+    },
+    Lafortune {
+        kd: ColourOrChecker,
+        lobes: Vec<LafortuneSection>,
+    },
+    Ward {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        alpha_x: f32,
+        alpha_y: f32,
+    },
+    AshikhminShirley {
+        rd: ColourOrChecker,
+        rs: [f32; 3],
+        nu: f32,
+        nv: f32,
+    },
+    CookTorrance {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        roughness: f32,
+        #[serde(default = "default_ior")]
+        ior: f32,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LafortuneSection {
+    c: [f32; 3],
+    exponent: f32,
+    albedo: [f32; 3],
 }
 
 fn default_ior() -> f32 {
@@ -365,7 +408,80 @@ impl Builder<'_> {
             MaterialSection::Plastic { albedo, ior: v } => {
                 Material::Plastic { albedo: self.albedo(&format!("{key}.albedo"), albedo)?, eta: ior(*v)? }
             }
+            MaterialSection::Phong { kd, ks, exponent } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                Material::Phong { kd, ks, exponent: self.exponent(&format!("{key}.exponent"), *exponent)? }
+            }
+            MaterialSection::BlinnPhong { kd, ks, exponent } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                Material::BlinnPhong { kd, ks, exponent: self.exponent(&format!("{key}.exponent"), *exponent)? }
+            }
+            MaterialSection::Lafortune { kd, lobes } => {
+                if lobes.is_empty() || lobes.len() > 4 {
+                    return Err(self.invalid(format!("{key}.lobes"), "give one to four lobes"));
+                }
+                let mut terms = Vec::with_capacity(lobes.len());
+                for (j, l) in lobes.iter().enumerate() {
+                    let lk = format!("{key}.lobes[{j}]");
+                    self.finite(&format!("{lk}.c"), &l.c)?;
+                    terms.push(LafortuneTerm {
+                        c: Vec3::from(l.c),
+                        exponent: self.exponent(&format!("{lk}.exponent"), l.exponent)?,
+                        albedo: self.colour(&format!("{lk}.albedo"), l.albedo)?,
+                    });
+                }
+                Material::Lafortune { kd: self.albedo(&format!("{key}.kd"), kd)?, lobes: terms }
+            }
+            MaterialSection::Ward { kd, ks, alpha_x, alpha_y } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                let a = |name: &str, v: f32| -> Result<f32, SceneFileError> {
+                    if v.is_finite() && v > 0.0 && v <= 1.0 {
+                        Ok(v)
+                    } else {
+                        Err(self.invalid(format!("{key}.{name}"), "must be in (0, 1]"))
+                    }
+                };
+                Material::Ward { kd, ks, alpha: Vec2::new(a("alpha_x", *alpha_x)?, a("alpha_y", *alpha_y)?) }
+            }
+            MaterialSection::AshikhminShirley { rd, rs, nu, nv } => {
+                let (rd, rs) = self.diffuse_specular(key, "rd", rd, "rs", *rs)?;
+                let nu = self.exponent(&format!("{key}.nu"), *nu)?;
+                let nv = self.exponent(&format!("{key}.nv"), *nv)?;
+                Material::AshikhminShirley { rd, rs, exponents: Vec2::new(nu, nv) }
+            }
+            MaterialSection::CookTorrance { kd, ks, roughness, ior: v } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                if !(roughness.is_finite() && *roughness > 0.0 && *roughness <= 1.0) {
+                    return Err(self.invalid(format!("{key}.roughness"), "must be in (0, 1]"));
+                }
+                Material::CookTorrance { kd, ks, m: *roughness, eta: ior(*v)? }
+            }
         })
+    }
+
+    fn exponent(&self, key: &str, v: f32) -> Result<f32, SceneFileError> {
+        if v.is_finite() && v > 0.0 && v <= 1e5 { Ok(v) } else { Err(self.invalid(key, "must be in (0, 100000]")) }
+    }
+
+    /// A diffuse texture and a specular colour whose sum must not exceed 1 (energy).
+    fn diffuse_specular(
+        &self,
+        key: &str,
+        kd_name: &str,
+        kd: &ColourOrChecker,
+        ks_name: &str,
+        ks: [f32; 3],
+    ) -> Result<(Texture, Vec3), SceneFileError> {
+        let kd = self.albedo(&format!("{key}.{kd_name}"), kd)?;
+        let ks = self.colour(&format!("{key}.{ks_name}"), ks)?;
+        let kd_max = match &kd {
+            Texture::Constant(c) => *c,
+            Texture::Checker { a, b, .. } => a.max(*b),
+        };
+        if (kd_max + ks).max_element() > 1.0 + 1e-6 {
+            return Err(self.invalid(key, format!("{kd_name} + {ks_name} exceeds 1 and would create energy")));
+        }
+        Ok((kd, ks))
     }
 
     fn transform(&self, key: &str, s: &ShapeSection) -> Result<Mat4, SceneFileError> {

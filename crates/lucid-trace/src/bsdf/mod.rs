@@ -4,18 +4,34 @@
 //! cosine), [`Bsdf::sample`] an importance-sampled direction, and [`Bsdf::pdf`] its density in
 //! solid angle.
 
+#[cfg(test)]
+mod analytic_tests;
+pub mod ashikhmin_shirley;
+pub mod blinn_phong;
+pub mod cook_torrance;
 pub mod dielectric;
 pub mod fresnel;
+pub mod lafortune;
 pub mod lambert;
+pub mod lobe;
 pub mod microfacet;
+pub mod phong;
 pub mod plastic;
+pub mod ward;
 
 use glam::{Vec2, Vec3};
 
+pub use ashikhmin_shirley::AshikhminShirley;
+pub use blinn_phong::BlinnPhongLobe;
+pub use cook_torrance::CookTorranceLobe;
 pub use dielectric::SmoothDielectric;
+pub use lafortune::{LafortuneLobes, LafortuneTerm};
 pub use lambert::Lambertian;
+pub use lobe::DiffuseAndLobe;
 pub use microfacet::{GgxDistribution, MicrofacetConductor};
+pub use phong::PhongLobe;
 pub use plastic::SmoothPlastic;
+pub use ward::WardLobe;
 
 /// A sampled direction and what it carries.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -102,6 +102,9 @@ pub struct Intersection {
     pub shading_normal: Vec3,
     /// Texture coordinates.
     pub uv: Vec2,
+    /// Unit surface tangent (direction of increasing u where the shape has texture
+    /// coordinates): orients anisotropic BSDFs.
+    pub tangent: Vec3,
     /// Which primitive.
     pub primitive: u32,
 }
@@ -185,8 +188,18 @@ impl Shape {
                 let theta = n.z.clamp(-1.0, 1.0).acos();
                 let phi = n.y.atan2(n.x).rem_euclid(std::f32::consts::TAU);
                 let uv = Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI);
+                // ∂p/∂φ: along the parallels; any direction at the poles.
+                let tangent = Vec3::new(-n.y, n.x, 0.0).try_normalize().unwrap_or(Vec3::X);
                 // Re-project onto the surface to cut the error of the ray parameter.
-                Intersection { t, point: centre + radius * n, geometric_normal: n, shading_normal: n, uv, primitive }
+                Intersection {
+                    t,
+                    point: centre + radius * n,
+                    geometric_normal: n,
+                    shading_normal: n,
+                    uv,
+                    tangent,
+                    primitive,
+                }
             }
             Shape::Triangle { p, n, uv } => {
                 let w = 1.0 - u - v;
@@ -209,15 +222,45 @@ impl Shape {
                     None => Vec2::new(u, v),
                 };
                 let point = w * p[0] + u * p[1] + v * p[2];
-                Intersection { t, point, geometric_normal: ng, shading_normal: shading, uv: tex, primitive }
+                Intersection {
+                    t,
+                    point,
+                    geometric_normal: ng,
+                    shading_normal: shading,
+                    uv: tex,
+                    tangent: dpdu(&p, uv),
+                    primitive,
+                }
             }
         }
     }
 }
 
+/// `∂p/∂u` of a triangle from its texture coordinates, or its first edge without them.
+fn dpdu(p: &[Vec3; 3], uv: Option<[Vec2; 3]>) -> Vec3 {
+    let edge = (p[1] - p[0]).normalize();
+    let Some(t) = uv else { return edge };
+    let (du1, du2) = (t[1] - t[0], t[2] - t[0]);
+    let det = du1.x * du2.y - du1.y * du2.x;
+    if det.abs() < 1e-12 {
+        return edge;
+    }
+    ((p[1] - p[0]) * du2.y - (p[2] - p[0]) * du1.y).try_normalize().map(|d| d * det.signum()).unwrap_or(edge)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tangents_follow_increasing_u() {
+        let p = [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
+        let uv = [Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
+        assert!((dpdu(&p, Some(uv)) - Vec3::X).length() < 1e-6);
+        // Mirrored texture coordinates flip it.
+        let flipped = [Vec2::new(1.0, 0.0), Vec2::ZERO, Vec2::new(1.0, 1.0)];
+        assert!((dpdu(&p, Some(flipped)) + Vec3::X).length() < 1e-6);
+    }
 
     #[test]
     fn sphere_and_triangle_hits() {
