@@ -9,7 +9,6 @@ use lucid_scene::Ray;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Intersection;
-use crate::light::Light;
 use crate::sampling::{Rng, orthonormal_basis, power_heuristic};
 use crate::scene::Scene;
 
@@ -96,13 +95,13 @@ impl PathTracer {
             let Some(hit) = scene.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
                 if let Some(env) = scene.environment
                     && !(segments == 1 && self.hide_emitters)
-                    && let Light::ConstantEnvironment { radiance } = &scene.lights[env]
+                    && let Some((radiance, env_pdf)) = scene.lights[env].environment(ray.direction)
                 {
                     let weight = match prev_pdf {
-                        Some(pdf) => power_heuristic(pdf, light_pick * crate::sampling::UNIFORM_SPHERE_PDF),
+                        Some(pdf) => power_heuristic(pdf, light_pick * env_pdf),
                         None => 1.0,
                     };
-                    out.radiance += beta * *radiance * weight;
+                    out.radiance += beta * radiance * weight;
                 }
                 break;
             };

@@ -3,6 +3,8 @@
 //! Fresnel values, pdf normalisation) and against a reference render of the Cornell box.
 
 pub mod bsdf;
+pub mod distribution;
+pub mod environment;
 pub mod geometry;
 pub mod integrator;
 pub mod light;

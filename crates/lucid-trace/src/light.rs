@@ -5,6 +5,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
+use crate::environment::EnvironmentMap;
 use crate::geometry::{Primitive, Shape};
 use crate::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere, uniform_triangle};
 
@@ -57,6 +58,8 @@ pub enum Light {
         /// Radiance.
         radiance: Vec3,
     },
+    /// A lat-long radiance map around the scene, importance-sampled.
+    EnvironmentMap(Box<EnvironmentMap>),
 }
 
 /// A direction towards a light and what arrives along it.
@@ -140,6 +143,20 @@ impl Light {
                 distance: f32::INFINITY,
                 delta: false,
             }),
+            Light::EnvironmentMap(env) => {
+                let (wi, li, pdf) = env.sample(u)?;
+                Some(LightSample { wi, li, pdf, distance: f32::INFINITY, delta: false })
+            }
+        }
+    }
+
+    /// For environment lights: the radiance arriving from direction `w` and the density with
+    /// which [`Light::sample`] picks `w`. `None` for every other light.
+    pub fn environment(&self, w: Vec3) -> Option<(Vec3, f32)> {
+        match self {
+            Light::ConstantEnvironment { radiance } => Some((*radiance, UNIFORM_SPHERE_PDF)),
+            Light::EnvironmentMap(env) => Some((env.eval(w), env.pdf(w))),
+            _ => None,
         }
     }
 
@@ -177,6 +194,7 @@ impl Light {
                 PI * *area * *radiance * if *two_sided { 2.0 } else { 1.0 }
             }
             Light::ConstantEnvironment { radiance } => 4.0 * PI * PI * scene_radius * scene_radius * *radiance,
+            Light::EnvironmentMap(env) => PI * scene_radius * scene_radius * env.integral(),
         }
     }
 }

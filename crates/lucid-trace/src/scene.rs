@@ -120,7 +120,7 @@ impl SceneBuilder {
             .enumerate()
             .map(|(i, (pending, prims))| match pending {
                 PendingLight::Ready(light) => {
-                    if matches!(light, Light::ConstantEnvironment { .. }) {
+                    if matches!(light, Light::ConstantEnvironment { .. } | Light::EnvironmentMap(_)) {
                         environment = Some(i);
                     }
                     light

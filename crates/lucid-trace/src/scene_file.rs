@@ -37,16 +37,21 @@
 //! type = "point"                 # point | spot | directional | environment
 //! position = [0, 2, 0]
 //! intensity = [10, 10, 10]
+//!
+//! [[lights]]
+//! type = "environment"           # radiance = [r, g, b] or file = "sky.exr" (lat-long, relative
+//! file = "sky.exr"               # to the scene file), with scale and rotate = [x, y, z] degrees
 //! ```
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use glam::{EulerRot, Mat4, Quat, Vec2, Vec3};
+use glam::{EulerRot, Mat3, Mat4, Quat, Vec2, Vec3};
 use lucid_scene::{Intrinsics, PinholeCamera, ThinLensCamera, look_at};
 use serde::Deserialize;
 
 use crate::bsdf::LafortuneTerm;
+use crate::environment::EnvironmentMap;
 use crate::geometry::procedural::{self, TriangleMesh};
 use crate::integrator::PathTracer;
 use crate::light::Light;
@@ -249,10 +254,33 @@ enum ScaleValue {
 #[derive(Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 enum LightSection {
-    Point { position: [f32; 3], intensity: [f32; 3] },
-    Spot { position: [f32; 3], look_at: [f32; 3], intensity: [f32; 3], cone_angle: f32, falloff_angle: Option<f32> },
-    Directional { direction: [f32; 3], irradiance: [f32; 3] },
-    Environment { radiance: [f32; 3] },
+    Point {
+        position: [f32; 3],
+        intensity: [f32; 3],
+    },
+    Spot {
+        position: [f32; 3],
+        look_at: [f32; 3],
+        intensity: [f32; 3],
+        cone_angle: f32,
+        falloff_angle: Option<f32>,
+    },
+    Directional {
+        direction: [f32; 3],
+        irradiance: [f32; 3],
+    },
+    Environment {
+        radiance: Option<[f32; 3]>,
+        file: Option<String>,
+        #[serde(default = "default_scale")]
+        scale: f32,
+        #[serde(default)]
+        rotate: [f32; 3],
+    },
+}
+
+fn default_scale() -> f32 {
+    1.0
 }
 
 /// A loaded scene with its camera and render settings.
@@ -619,8 +647,35 @@ impl Builder<'_> {
                 }
                 Light::Directional { direction: d, irradiance: self.colour(&format!("{key}.irradiance"), *irradiance)? }
             }
-            LightSection::Environment { radiance } => {
-                Light::ConstantEnvironment { radiance: self.colour(&format!("{key}.radiance"), *radiance)? }
+            LightSection::Environment { radiance, file, scale, rotate } => {
+                if !(scale.is_finite() && *scale >= 0.0) {
+                    return Err(self.invalid(format!("{key}.scale"), "must be a non-negative number"));
+                }
+                self.finite(&format!("{key}.rotate"), rotate)?;
+                match (radiance, file) {
+                    (Some(r), None) => {
+                        Light::ConstantEnvironment { radiance: self.colour(&format!("{key}.radiance"), *r)? * *scale }
+                    }
+                    (None, Some(f)) => {
+                        let path = self.path.parent().unwrap_or(Path::new(".")).join(f);
+                        let image = lucid_image::read_image(&path)
+                            .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
+                        if !image.is_finite() {
+                            return Err(self.invalid(
+                                format!("{key}.file"),
+                                format!("{} has NaN or infinite pixels", path.display()),
+                            ));
+                        }
+                        let rot = Quat::from_euler(
+                            EulerRot::ZYX,
+                            rotate[2].to_radians(),
+                            rotate[1].to_radians(),
+                            rotate[0].to_radians(),
+                        );
+                        Light::EnvironmentMap(Box::new(EnvironmentMap::new(&image, *scale, Mat3::from_quat(rot))))
+                    }
+                    _ => return Err(self.invalid(key, "an environment needs exactly one of radiance or file")),
+                }
             }
         })
     }

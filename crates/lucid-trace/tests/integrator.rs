@@ -115,3 +115,45 @@ fn renders_do_not_depend_on_the_thread_count() {
     let c = render(&loaded.scene, &camera, &RenderSettings { seed: settings.seed + 1, ..settings }, &|_| {});
     assert_ne!(a.colour, c.colour, "the seed matters");
 }
+
+#[test]
+fn diffuse_plane_under_an_environment_map_reflects_its_cosine_weighted_integral() {
+    // A Lambertian plane facing +Z sees the upper hemisphere of the map: L_o = ρ/π ∫ L cos θ dω,
+    // exact per texel: Δφ·(sin²θ₁ − sin²θ₀)/2 for the rows above the horizon.
+    let (w, h) = (48usize, 24usize);
+    let img = lucid_image::Image::from_fn(w, h, |x, y| {
+        let sun = if x == 10 && y == 4 { 200.0 } else { 0.0 };
+        [0.2 + 0.02 * y as f32 + sun, 0.5 + 0.01 * x as f32, 0.3 + sun * 0.5, 1.0]
+    });
+    let mut exact = Vec3::ZERO;
+    for y in 0..h / 2 {
+        let (t0, t1) = (std::f32::consts::PI * y as f32 / h as f32, std::f32::consts::PI * (y + 1) as f32 / h as f32);
+        let weight = std::f32::consts::TAU / w as f32 * (t1.sin().powi(2) - t0.sin().powi(2)) / 2.0;
+        for x in 0..w {
+            let p = img.get(x, y);
+            exact += Vec3::new(p[0], p[1], p[2]) * weight;
+        }
+    }
+    let albedo = 0.6;
+    let expected = albedo / std::f32::consts::PI * exact;
+
+    let mut b = SceneBuilder::new();
+    let m = b.material(lambert(Vec3::splat(albedo)));
+    b.mesh(&quad().transformed(&Mat4::from_scale(Vec3::splat(100.0))), m, None);
+    b.light(Light::EnvironmentMap(Box::new(lucid_trace::environment::EnvironmentMap::new(
+        &img,
+        1.0,
+        glam::Mat3::IDENTITY,
+    ))));
+    let scene = b.build();
+    let cam =
+        PinholeCamera::new(Intrinsics::from_fov_x(4, 4, 0.01), look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y));
+    let settings = RenderSettings {
+        spp: 20_000,
+        seed: 3,
+        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false },
+    };
+    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+    let got = mean_rgb(&out.colour);
+    assert!(((got - expected) / expected).abs().max_element() < 0.01, "{got} vs {expected}");
+}
