@@ -1,6 +1,8 @@
 //! Materials (what the scene file names) and textures; a material evaluated at a surface
 //! point gives a BSDF.
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
 
 use crate::bsdf::{
@@ -23,6 +25,63 @@ pub enum Texture {
         /// Squares per unit of uv.
         scale: f32,
     },
+    /// An image, bilinearly filtered.
+    Image(Arc<ImageTexture>),
+}
+
+/// What happens outside `[0,1]²` of an image texture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// Tile the image.
+    Repeat,
+    /// Extend the edge texels.
+    Clamp,
+}
+
+/// A linear RGB image used as a texture; `(u, v) = (0, 0)` is the bottom-left corner (the
+/// OBJ convention), texel centres at half-integers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageTexture {
+    width: usize,
+    height: usize,
+    texels: Vec<Vec3>,
+    wrap: Wrap,
+    scale: Vec2,
+}
+
+impl ImageTexture {
+    /// From a linear image; `scale` multiplies the texture coordinates (tiling).
+    pub fn new(image: &lucid_image::Image, wrap: Wrap, scale: Vec2) -> Self {
+        let texels = image.pixels().iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        Self { width: image.width(), height: image.height(), texels, wrap, scale }
+    }
+
+    fn texel(&self, x: i64, y: i64) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let (x, y) = match self.wrap {
+            Wrap::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
+            Wrap::Clamp => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+        };
+        self.texels[(y * w + x) as usize]
+    }
+
+    /// Bilinearly filtered colour at `uv`.
+    pub fn eval(&self, uv: Vec2) -> Vec3 {
+        let uv = uv * self.scale;
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0) * (1.0 - fx) + self.texel(x0 + 1, y0) * fx;
+        let bottom = self.texel(x0, y0 + 1) * (1.0 - fx) + self.texel(x0 + 1, y0 + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// The largest value of any channel (for energy checks).
+    pub fn max_value(&self) -> f32 {
+        self.texels.iter().map(|t| t.max_element()).fold(0.0, f32::max)
+    }
 }
 
 impl Texture {
@@ -34,6 +93,7 @@ impl Texture {
                 let cell = (uv * *scale).floor();
                 if (cell.x as i64 + cell.y as i64).rem_euclid(2) == 0 { *a } else { *b }
             }
+            Texture::Image(image) => image.eval(uv),
         }
     }
 }
@@ -127,6 +187,7 @@ pub enum Material {
 
 /// A BSDF instantiated at a surface point (static dispatch over the kinds).
 #[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)] // built on the stack per hit; boxing would allocate per hit
 pub enum SurfaceBsdf {
     /// See [`Lambertian`].
     Lambertian(Lambertian),
@@ -241,5 +302,31 @@ impl Bsdf for SurfaceBsdf {
 
     fn is_specular(&self) -> bool {
         each_bsdf!(self, b => b.is_specular())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_textures_interpolate_and_wrap() {
+        // 2x2: top row red, green; bottom row blue, white.
+        let img = lucid_image::Image::from_pixels(
+            2,
+            2,
+            vec![[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]],
+        );
+        let t = ImageTexture::new(&img, Wrap::Repeat, Vec2::ONE);
+        // Texel centres: (0.25, 0.75) is the top-left texel (v up).
+        assert!((t.eval(Vec2::new(0.25, 0.75)) - Vec3::X).length() < 1e-6);
+        assert!((t.eval(Vec2::new(0.75, 0.25)) - Vec3::ONE).length() < 1e-6);
+        // Halfway between red and green.
+        assert!((t.eval(Vec2::new(0.5, 0.75)) - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+        // Repeat: one period over is the same point.
+        assert!((t.eval(Vec2::new(1.25, -0.25)) - t.eval(Vec2::new(0.25, 0.75))).length() < 1e-6);
+        // Clamp: far outside takes the edge texel.
+        let c = ImageTexture::new(&img, Wrap::Clamp, Vec2::ONE);
+        assert!((c.eval(Vec2::new(-3.0, 5.0)) - Vec3::X).length() < 1e-6);
     }
 }

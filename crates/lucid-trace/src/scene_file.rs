@@ -23,10 +23,11 @@
 //! [materials.white]
 //! type = "lambertian"            # lambertian | conductor | dielectric | plastic | phong | blinn_phong
 //!                                # | lafortune | ward | ashikhmin_shirley | cook_torrance
-//! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard
+//! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard, or
+//!                                # { file = "t.png", colorspace = "srgb", wrap = "repeat", scale = [1, 1] }
 //!
 //! [[shapes]]
-//! type = "quad"                  # quad | cube | sphere | torus | torus_knot
+//! type = "quad"                  # quad | cube | sphere | torus | torus_knot | mesh (file = "x.obj"/.ply)
 //! material = "white"
 //! translate = [0, -1, 0]         # transform: scale, then rotate (degrees about x, y, z), then translate
 //! rotate = [-90, 0, 0]
@@ -52,10 +53,11 @@ use serde::Deserialize;
 
 use crate::bsdf::LafortuneTerm;
 use crate::environment::EnvironmentMap;
+use crate::geometry::mesh_file::load_mesh;
 use crate::geometry::procedural::{self, TriangleMesh};
 use crate::integrator::PathTracer;
 use crate::light::Light;
-use crate::material::{Material, Texture};
+use crate::material::{ImageTexture, Material, Texture, Wrap};
 use crate::render::{RenderCamera, RenderSettings};
 use crate::scene::{Emission, Scene, SceneBuilder};
 
@@ -144,7 +146,20 @@ impl Default for IntegratorSection {
 #[serde(untagged)]
 enum ColourOrChecker {
     Colour([f32; 3]),
-    Checker { a: [f32; 3], b: [f32; 3], scale: f32 },
+    Checker {
+        a: [f32; 3],
+        b: [f32; 3],
+        scale: f32,
+    },
+    Image {
+        file: String,
+        #[serde(default)]
+        colorspace: Option<String>,
+        #[serde(default)]
+        wrap: Option<String>,
+        #[serde(default)]
+        scale: Option<[f32; 2]>,
+    },
 }
 
 #[derive(Debug, Deserialize)]
@@ -236,6 +251,7 @@ struct ShapeSection {
     #[serde(default)]
     two_sided: bool,
     // Shape parameters.
+    file: Option<String>,
     radius: Option<f32>,
     minor_radius: Option<f32>,
     p: Option<u32>,
@@ -342,6 +358,41 @@ impl Builder<'_> {
                     return Err(self.invalid(key, "checker scale must be positive"));
                 }
                 Texture::Checker { a: check(self.colour(key, *a)?)?, b: check(self.colour(key, *b)?)?, scale: *scale }
+            }
+            ColourOrChecker::Image { file, colorspace, wrap, scale } => {
+                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
+                let mut image = lucid_image::read_image(&path).map_err(|e| self.invalid(key, e.to_string()))?;
+                match colorspace.as_deref() {
+                    None | Some("srgb") => {}
+                    // LDR files are decoded as sRGB; "linear" data (masks, roughness) is re-encoded
+                    // to the stored values.
+                    Some("linear") if !lucid_image::ImageFormat::from_path(&path).is_ok_and(|f| f.is_hdr()) => {
+                        use lucid_image::color::srgb_encode;
+                        image = image.map(|p| [srgb_encode(p[0]), srgb_encode(p[1]), srgb_encode(p[2]), p[3]]);
+                    }
+                    Some("linear") => {}
+                    Some(other) => return Err(self.invalid(key, format!("colorspace {other:?} is not srgb or linear"))),
+                }
+                let wrap = match wrap.as_deref() {
+                    None | Some("repeat") => Wrap::Repeat,
+                    Some("clamp") => Wrap::Clamp,
+                    Some(other) => return Err(self.invalid(key, format!("wrap {other:?} is not repeat or clamp"))),
+                };
+                let scale = scale.unwrap_or([1.0, 1.0]);
+                if !scale.iter().all(|s| s.is_finite() && *s != 0.0) {
+                    return Err(self.invalid(key, "texture scale must be finite and non-zero"));
+                }
+                let texture = ImageTexture::new(&image, wrap, Vec2::from(scale));
+                if !image.is_finite() {
+                    return Err(self.invalid(key, format!("{} has NaN or infinite pixels", path.display())));
+                }
+                if texture.max_value() > 1.0 {
+                    return Err(self.invalid(
+                        key,
+                        format!("{} has values above 1: an albedo would create energy", path.display()),
+                    ));
+                }
+                Texture::Image(std::sync::Arc::new(texture))
             }
         })
     }
@@ -505,6 +556,7 @@ impl Builder<'_> {
         let kd_max = match &kd {
             Texture::Constant(c) => *c,
             Texture::Checker { a, b, .. } => a.max(*b),
+            Texture::Image(image) => Vec3::splat(image.max_value()),
         };
         if (kd_max + ks).max_element() > 1.0 + 1e-6 {
             return Err(self.invalid(key, format!("{kd_name} + {ks_name} exceeds 1 and would create energy")));
@@ -582,6 +634,14 @@ impl Builder<'_> {
                 builder.sphere(centre, r * scale.x.abs(), material, emission);
                 return Ok(());
             }
+            "mesh" => {
+                let file = s
+                    .file
+                    .as_ref()
+                    .ok_or_else(|| self.invalid(format!("{key}.file"), "a mesh needs a file (.obj or .ply)"))?;
+                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
+                load_mesh(&path).map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?
+            }
             "quad" => procedural::quad(),
             "cube" => procedural::cube(),
             "torus" => procedural::torus(
@@ -601,7 +661,7 @@ impl Builder<'_> {
             other => {
                 return Err(self.invalid(
                     format!("{key}.type"),
-                    format!("unknown shape {other:?} (expected quad, cube, sphere, torus or torus_knot)"),
+                    format!("unknown shape {other:?} (expected quad, cube, sphere, torus, torus_knot or mesh)"),
                 ));
             }
         };

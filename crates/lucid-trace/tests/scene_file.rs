@@ -148,3 +148,44 @@ fn mistakes_name_the_file_and_key() {
         assert!(!err.contains('\n'), "one line: {err:?}");
     }
 }
+
+#[test]
+fn meshes_and_image_textures_load_relative_to_the_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
+        .unwrap();
+    let tex = lucid_image::Image::from_fn(4, 4, |x, _| [x as f32 / 4.0, 0.5, 0.25, 1.0]);
+    lucid_image::write_image(dir.path().join("tex.png"), &tex).unwrap();
+    let text = scene(
+        r#"
+[materials.t]
+type = "lambertian"
+albedo = { file = "tex.png", wrap = "clamp" }
+
+[[shapes]]
+type = "mesh"
+file = "tri.obj"
+material = "t"
+"#,
+    );
+    std::fs::write(dir.path().join("s.toml"), &text).unwrap();
+    let loaded = lucid_trace::load_scene(&dir.path().join("s.toml")).unwrap();
+    assert_eq!(loaded.scene.bvh.primitives().len(), 1);
+    // The texture is sampled in linear space: the left texel column reads back 0.
+    let albedo = loaded.scene.materials[0].albedo(glam::Vec2::new(0.01, 0.5));
+    assert!(albedo.x < 0.05 && (albedo.y - 0.5).abs() < 0.01, "{albedo}");
+
+    for (body, needle) in [
+        ("[[shapes]]\ntype = \"mesh\"\nfile = \"nope.obj\"\nmaterial = \"t\"", "nope.obj"),
+        ("[[shapes]]\ntype = \"mesh\"\nmaterial = \"t\"", "needs a file"),
+    ] {
+        let bad = scene(&format!("[materials.t]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n{body}"));
+        std::fs::write(dir.path().join("b.toml"), bad).unwrap();
+        let err = lucid_trace::load_scene(&dir.path().join("b.toml")).unwrap_err().to_string();
+        assert!(err.contains("b.toml") && err.contains("shapes[0].file") && err.contains(needle), "{err}");
+    }
+    let bad = scene("[materials.t]\ntype = \"lambertian\"\nalbedo = { file = \"missing.png\" }");
+    std::fs::write(dir.path().join("c.toml"), bad).unwrap();
+    let err = lucid_trace::load_scene(&dir.path().join("c.toml")).unwrap_err().to_string();
+    assert!(err.contains("materials.t.albedo") && err.contains("missing.png"), "{err}");
+}

@@ -2,6 +2,7 @@
 //! BVH over them, and procedural meshes.
 
 pub mod bvh;
+pub mod mesh_file;
 pub mod procedural;
 
 use glam::{Vec2, Vec3};
