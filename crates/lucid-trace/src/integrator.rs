@@ -1,6 +1,11 @@
 //! Unidirectional path tracing with next-event estimation, multiple importance sampling
 //! (power heuristic) and Russian roulette.
 //!
+//! Participating media are homogeneous: a path flying through one samples a free-flight
+//! distance and may scatter (phase-function sampling and next-event estimation with
+//! transmittance) before reaching the next surface. Media fill the inside of closed meshes
+//! (whose boundary is usually an index-matched `Interface`) or the whole scene.
+//!
 //! Path length follows Mitsuba's convention: `max_depth` counts path segments including the
 //! camera ray, so 1 shows only emitters seen directly and 2 is direct illumination.
 
@@ -8,7 +13,9 @@ use glam::Vec3;
 use lucid_scene::Ray;
 
 use crate::bsdf::Bsdf;
-use crate::geometry::Intersection;
+use crate::geometry::{Intersection, Primitive};
+use crate::light::LightSample;
+use crate::material::Material;
 use crate::sampling::{Rng, orthonormal_basis, power_heuristic};
 use crate::scene::Scene;
 
@@ -86,13 +93,53 @@ impl PathTracer {
         let mut ray = camera_ray;
         let mut beta = Vec3::ONE;
         let light_pick = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
-        // The previous vertex's BSDF pdf, for weighting emission found by BSDF sampling;
-        // None after a specular bounce or for the camera ray.
+        // The previous vertex's BSDF or phase pdf, for weighting emission found by sampling
+        // it; None after a specular bounce or for the camera ray.
         let mut prev_pdf: Option<f32> = None;
         let mut prev_point = ray.origin;
         let mut segments = 1;
+        let mut medium = scene.global_medium;
+        let mut crossings = 0;
         loop {
-            let Some(hit) = scene.bvh.intersect(&ray, 0.0, f32::INFINITY) else {
+            let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
+
+            // Flight through the current medium: maybe a scattering event before the surface.
+            if let Some(m) = medium {
+                let med = &scene.media[m as usize];
+                let sample = med.sample_distance(found.map_or(f32::INFINITY, |h| h.t), rng);
+                beta *= sample.weight;
+                if beta == Vec3::ZERO {
+                    break;
+                }
+                if let Some(t) = sample.scatter_at {
+                    if segments >= self.max_depth {
+                        break;
+                    }
+                    let point = ray.at(t);
+                    let wo = -ray.direction;
+                    if let Some((light_pdf, ls)) = self.pick_light(scene, point, light_pick, rng) {
+                        let f = med.phase.eval(wo, ls.wi);
+                        let tr =
+                            self.transmittance(scene, Ray { origin: point, direction: ls.wi }, ls.distance, medium);
+                        if tr != Vec3::ZERO {
+                            let weight = if ls.delta { 1.0 } else { power_heuristic(light_pdf, f) };
+                            out.radiance += beta * f * tr * ls.li * weight / light_pdf;
+                        }
+                    }
+                    // The phase function is sampled exactly: value/pdf = 1, beta is unchanged.
+                    let (wi, pdf) = med.phase.sample(wo, rng.uniform2());
+                    prev_pdf = Some(pdf);
+                    prev_point = point;
+                    ray = Ray { origin: point, direction: wi };
+                    segments += 1;
+                    if !self.russian_roulette(segments, &mut beta, rng) {
+                        break;
+                    }
+                    continue;
+                }
+            }
+
+            let Some(hit) = found else {
                 if let Some(env) = scene.environment
                     && !(segments == 1 && self.hide_emitters)
                     && let Some((radiance, env_pdf)) = scene.lights[env].environment(ray.direction)
@@ -107,9 +154,19 @@ impl PathTracer {
             };
             let primitive = &scene.bvh.primitives()[hit.primitive as usize];
             let material = &scene.materials[primitive.material as usize];
-            if segments == 1 {
+            if matches!(material, Material::Interface) {
+                // An index-matched boundary of a medium: not a path vertex, only a change of medium.
+                medium = medium_across(medium, primitive, ray.direction, &hit);
+                ray = spawn(&hit, ray.direction);
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
+                    break;
+                }
+                continue;
+            }
+            if segments == 1 && out.alpha == 0.0 {
                 out.alpha = 1.0;
-                out.distance = hit.t;
+                out.distance = (hit.point - camera_ray.origin).dot(camera_ray.direction);
                 out.normal = hit.shading_normal;
                 out.albedo = material.albedo(hit.uv);
             }
@@ -137,21 +194,18 @@ impl PathTracer {
             let frame = Frame::new(hit.shading_normal, hit.tangent);
             let wo = frame.to_local(-ray.direction);
 
-            // Next-event estimation: one light, picked uniformly.
-            if !bsdf.is_specular() && !scene.lights.is_empty() {
-                let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
-                let light = &scene.lights[pick];
-                if let Some(ls) = light.sample(hit.point, rng.uniform2(), scene.bvh.primitives()) {
-                    let wi = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wo, wi);
-                    if f != Vec3::ZERO && ls.pdf > 0.0 {
-                        let shadow = spawn(&hit, ls.wi);
-                        let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-3) } else { f32::INFINITY };
-                        if !scene.bvh.occluded(&shadow, 0.0, t_max) {
-                            let light_pdf = light_pick * ls.pdf;
-                            let weight = if ls.delta { 1.0 } else { power_heuristic(light_pdf, bsdf.pdf(wo, wi)) };
-                            out.radiance += beta * f * wi.z.abs() * ls.li * weight / light_pdf;
-                        }
+            // Next-event estimation.
+            if !bsdf.is_specular()
+                && let Some((light_pdf, ls)) = self.pick_light(scene, hit.point, light_pick, rng)
+            {
+                let wi = frame.to_local(ls.wi);
+                let f = bsdf.eval(wo, wi);
+                if f != Vec3::ZERO {
+                    let shadow_medium = medium_across(medium, primitive, ls.wi, &hit);
+                    let tr = self.transmittance(scene, spawn(&hit, ls.wi), ls.distance, shadow_medium);
+                    if tr != Vec3::ZERO {
+                        let weight = if ls.delta { 1.0 } else { power_heuristic(light_pdf, bsdf.pdf(wo, wi)) };
+                        out.radiance += beta * f * wi.z.abs() * tr * ls.li * weight / light_pdf;
                     }
                 }
             }
@@ -165,16 +219,79 @@ impl PathTracer {
             prev_pdf = if s.specular { None } else { Some(s.pdf) };
             prev_point = hit.point;
             let direction = frame.to_world(s.wi).normalize();
+            if s.transmission {
+                medium = medium_across(medium, primitive, direction, &hit);
+            }
             ray = spawn(&hit, direction);
             segments += 1;
-            if segments > self.rr_depth {
-                let q = beta.max_element().min(0.95);
-                if rng.uniform() >= q {
-                    break;
-                }
-                beta /= q;
+            if !self.russian_roulette(segments, &mut beta, rng) {
+                break;
             }
         }
         out
+    }
+
+    /// Picks one light uniformly and samples it from `point`: `(selection × light pdf, sample)`.
+    fn pick_light(&self, scene: &Scene, point: Vec3, light_pick: f32, rng: &mut Rng) -> Option<(f32, LightSample)> {
+        if scene.lights.is_empty() {
+            return None;
+        }
+        let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
+        let ls = scene.lights[pick].sample(point, rng.uniform2(), scene.bvh.primitives())?;
+        (ls.pdf > 0.0).then_some((light_pick * ls.pdf, ls))
+    }
+
+    /// Continues the path with probability `min(max β, 0.95)` once it is long enough,
+    /// dividing β by that probability to stay unbiased; false ends the path.
+    fn russian_roulette(&self, segments: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
+        if segments <= self.rr_depth {
+            return true;
+        }
+        let q = beta.max_element().min(0.95);
+        if rng.uniform() >= q {
+            return false;
+        }
+        *beta /= q;
+        true
+    }
+
+    /// Fraction of light that arrives along `ray` from `distance` away: 0 if an opaque
+    /// surface is in the way, else the product of the media's transmittances, crossing
+    /// index-matched boundaries.
+    fn transmittance(&self, scene: &Scene, mut ray: Ray, distance: f32, mut medium: Option<u32>) -> Vec3 {
+        let mut remaining = if distance.is_finite() { distance * (1.0 - 1e-3) } else { f32::INFINITY };
+        if !scene.has_media() {
+            return if scene.bvh.occluded(&ray, 0.0, remaining) { Vec3::ZERO } else { Vec3::ONE };
+        }
+        let mut tr = Vec3::ONE;
+        for _ in 0..MAX_CROSSINGS {
+            let found = scene.bvh.intersect(&ray, 0.0, remaining);
+            if let Some(m) = medium {
+                tr *= scene.media[m as usize].transmittance(found.map_or(remaining, |h| h.t));
+            }
+            let Some(hit) = found else { return tr };
+            let primitive = &scene.bvh.primitives()[hit.primitive as usize];
+            if !matches!(scene.materials[primitive.material as usize], Material::Interface) || tr == Vec3::ZERO {
+                return Vec3::ZERO;
+            }
+            medium = medium_across(medium, primitive, ray.direction, &hit);
+            remaining -= hit.t;
+            ray = spawn(&hit, ray.direction);
+        }
+        Vec3::ZERO
+    }
+}
+
+/// Bound on boundary crossings along one ray, against degenerate geometry.
+const MAX_CROSSINGS: u32 = 256;
+
+/// The medium a ray is in after crossing `primitive` in `direction`: its interior when
+/// entering (against the outward geometric normal), the scene's outer medium when leaving;
+/// unchanged for surfaces that bound no medium.
+fn medium_across(current: Option<u32>, primitive: &Primitive, direction: Vec3, hit: &Intersection) -> Option<u32> {
+    match primitive.interior_medium {
+        Some(inside) if direction.dot(hit.geometric_normal) < 0.0 => Some(inside),
+        Some(_) => primitive.exterior_medium,
+        None => current,
     }
 }

@@ -9,6 +9,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod render;
 pub mod sampling;
 pub mod scene;

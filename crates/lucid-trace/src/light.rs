@@ -248,6 +248,7 @@ mod tests {
                 material: 0,
                 light: Some(0),
                 interior_medium: None,
+                exterior_medium: None,
             })
             .collect();
         // The quad faces +Z; flip it to face the origin by reversing the winding.

@@ -172,6 +172,8 @@ pub enum Material {
         /// Exponents along the tangent and bitangent.
         exponents: Vec2,
     },
+    /// An index-matched boundary that light crosses unchanged: the surface of a medium.
+    Interface,
     /// Cook–Torrance with the Beckmann distribution.
     CookTorrance {
         /// Diffuse albedo.
@@ -264,6 +266,9 @@ impl Material {
                 nu: exponents.x,
                 nv: exponents.y,
             }),
+            // Crossing unchanged is refraction with η = 1 and no reflection; the integrator
+            // skips interfaces before asking for a BSDF, this keeps the two consistent.
+            Material::Interface => SurfaceBsdf::Dielectric(SmoothDielectric { eta: 1.0, transmittance: Vec3::ONE }),
             Material::CookTorrance { kd, ks, m, eta } => SurfaceBsdf::CookTorrance(DiffuseAndLobe {
                 diffuse: kd.eval(uv),
                 lobe: CookTorranceLobe { ks: *ks, m: *m, eta: *eta },
@@ -280,6 +285,7 @@ impl Material {
             | Material::Ward { kd, ks, .. }
             | Material::CookTorrance { kd, ks, .. } => kd.eval(uv) + *ks,
             Material::Lafortune { kd, .. } => kd.eval(uv),
+            Material::Interface => Vec3::ZERO,
             Material::AshikhminShirley { rd, rs, .. } => rd.eval(uv) + *rs,
             Material::Conductor { eta, k, .. } => crate::bsdf::fresnel::fresnel_conductor(1.0, *eta, *k),
             Material::Dielectric { transmittance, .. } => *transmittance,

@@ -7,6 +7,7 @@ use crate::geometry::procedural::TriangleMesh;
 use crate::geometry::{Bvh, Primitive, Shape};
 use crate::light::Light;
 use crate::material::Material;
+use crate::medium::HomogeneousMedium;
 
 /// Everything the integrator needs.
 #[derive(Clone, Debug)]
@@ -21,6 +22,18 @@ pub struct Scene {
     pub environment: Option<usize>,
     /// Radius of a sphere around the scene's geometry.
     pub radius: f32,
+    /// Participating media, indexed by [`Primitive::interior_medium`].
+    pub media: Vec<HomogeneousMedium>,
+    /// The medium filling the scene (where the camera is), if any.
+    pub global_medium: Option<u32>,
+}
+
+impl Scene {
+    /// Whether rays may cross media or index-matched boundaries (shadow rays then need
+    /// transmittance rather than a plain occlusion test).
+    pub fn has_media(&self) -> bool {
+        !self.media.is_empty() || self.materials.iter().any(|m| matches!(m, Material::Interface))
+    }
 }
 
 enum PendingLight {
@@ -34,6 +47,8 @@ pub struct SceneBuilder {
     primitives: Vec<Primitive>,
     materials: Vec<Material>,
     lights: Vec<PendingLight>,
+    media: Vec<HomogeneousMedium>,
+    global_medium: Option<u32>,
 }
 
 /// What a shape emits, if anything.
@@ -57,6 +72,17 @@ impl SceneBuilder {
         (self.materials.len() - 1) as u32
     }
 
+    /// Adds a medium and returns its index.
+    pub fn medium(&mut self, medium: HomogeneousMedium) -> u32 {
+        self.media.push(medium);
+        (self.media.len() - 1) as u32
+    }
+
+    /// Fills the scene (outside every closed mesh that has its own medium) with a medium.
+    pub fn global_medium(&mut self, medium: u32) {
+        self.global_medium = Some(medium);
+    }
+
     /// Adds a point, spot, directional or environment light.
     pub fn light(&mut self, light: Light) {
         self.lights.push(PendingLight::Ready(light));
@@ -71,6 +97,17 @@ impl SceneBuilder {
 
     /// Adds a triangle mesh; an emissive one becomes one area light.
     pub fn mesh(&mut self, mesh: &TriangleMesh, material: u32, emission: Option<Emission>) {
+        self.mesh_with_medium(mesh, material, emission, None);
+    }
+
+    /// Adds a closed triangle mesh whose inside is filled with `interior` (outward normals).
+    pub fn mesh_with_medium(
+        &mut self,
+        mesh: &TriangleMesh,
+        material: u32,
+        emission: Option<Emission>,
+        interior: Option<u32>,
+    ) {
         let light = self.area_light(emission);
         let has_normals = mesh.normals.len() == mesh.positions.len();
         let has_uvs = mesh.uvs.len() == mesh.positions.len();
@@ -81,28 +118,41 @@ impl SceneBuilder {
             }
             let n = has_normals.then(|| tri.map(|i| mesh.normals[i as usize]));
             let uv = has_uvs.then(|| tri.map(|i| mesh.uvs[i as usize]));
+            let shape = Shape::Triangle { p, n, uv };
             self.primitives.push(Primitive {
-                shape: Shape::Triangle { p, n, uv },
+                shape,
                 material,
                 light,
-                interior_medium: None,
+                interior_medium: interior,
+                exterior_medium: None,
             });
         }
     }
 
     /// Adds a sphere.
     pub fn sphere(&mut self, centre: Vec3, radius: f32, material: u32, emission: Option<Emission>) {
+        self.sphere_with_medium(centre, radius, material, emission, None);
+    }
+
+    /// Adds a sphere filled with `interior`.
+    pub fn sphere_with_medium(
+        &mut self,
+        centre: Vec3,
+        radius: f32,
+        material: u32,
+        emission: Option<Emission>,
+        interior: Option<u32>,
+    ) {
         let light = self.area_light(emission);
-        self.primitives.push(Primitive {
-            shape: Shape::Sphere { centre, radius },
-            material,
-            light,
-            interior_medium: None,
-        });
+        let shape = Shape::Sphere { centre, radius };
+        self.primitives.push(Primitive { shape, material, light, interior_medium: interior, exterior_medium: None });
     }
 
     /// Builds the scene.
-    pub fn build(self) -> Scene {
+    pub fn build(mut self) -> Scene {
+        for p in &mut self.primitives {
+            p.exterior_medium = self.global_medium;
+        }
         let bvh = Bvh::new(self.primitives);
         let bounds = bvh.bounds();
         let radius = if bounds.min.x.is_finite() { 0.5 * (bounds.max - bounds.min).length() } else { 1.0 };
@@ -128,6 +178,14 @@ impl SceneBuilder {
                 PendingLight::Area { radiance, two_sided } => Light::area(bvh.primitives(), prims, radiance, two_sided),
             })
             .collect();
-        Scene { bvh, materials: self.materials, lights, environment, radius }
+        Scene {
+            bvh,
+            materials: self.materials,
+            lights,
+            environment,
+            radius,
+            media: self.media,
+            global_medium: self.global_medium,
+        }
     }
 }

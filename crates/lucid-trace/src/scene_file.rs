@@ -22,7 +22,7 @@
 //!
 //! [materials.white]
 //! type = "lambertian"            # lambertian | conductor | dielectric | plastic | phong | blinn_phong
-//!                                # | lafortune | ward | ashikhmin_shirley | cook_torrance
+//!                                # | lafortune | ward | ashikhmin_shirley | cook_torrance | interface
 //! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard, or
 //!                                # { file = "t.png", colorspace = "srgb", wrap = "repeat", scale = [1, 1] }
 //!
@@ -38,6 +38,13 @@
 //! type = "point"                 # point | spot | directional | environment
 //! position = [0, 2, 0]
 //! intensity = [10, 10, 10]
+//!
+//! [media.smoke]                  # homogeneous: absorption, scattering (per unit length), HG g
+//! sigma_a = [0.05, 0.05, 0.05]
+//! sigma_s = [1.0, 1.0, 1.0]
+//! g = 0.3
+//! # a closed shape with `interior = "smoke"` (material type = "interface" for an invisible
+//! # boundary, or e.g. a dielectric) holds it; `global_medium = "smoke"` at the top fills the scene
 //!
 //! [[lights]]
 //! type = "environment"           # radiance = [r, g, b] or file = "sky.exr" (lat-long, relative
@@ -58,6 +65,7 @@ use crate::geometry::procedural::{self, TriangleMesh};
 use crate::integrator::PathTracer;
 use crate::light::Light;
 use crate::material::{ImageTexture, Material, Texture, Wrap};
+use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
 use crate::render::{RenderCamera, RenderSettings};
 use crate::scene::{Emission, Scene, SceneBuilder};
 
@@ -104,6 +112,19 @@ struct SceneFile {
     shapes: Vec<ShapeSection>,
     #[serde(default)]
     lights: Vec<LightSection>,
+    #[serde(default)]
+    media: BTreeMap<String, MediumSection>,
+    #[serde(default)]
+    global_medium: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MediumSection {
+    sigma_a: [f32; 3],
+    sigma_s: [f32; 3],
+    #[serde(default)]
+    g: f32,
 }
 
 #[derive(Debug, Deserialize)]
@@ -218,6 +239,7 @@ enum MaterialSection {
         #[serde(default = "default_ior")]
         ior: f32,
     },
+    Interface,
 }
 
 #[derive(Debug, Deserialize)]
@@ -250,6 +272,8 @@ struct ShapeSection {
     emission: Option<[f32; 3]>,
     #[serde(default)]
     two_sided: bool,
+    #[serde(default)]
+    interior: Option<String>,
     // Shape parameters.
     file: Option<String>,
     radius: Option<f32>,
@@ -409,12 +433,28 @@ impl Builder<'_> {
             integrator: PathTracer { max_depth: i.max_depth, rr_depth: i.rr_depth, hide_emitters: i.hide_emitters },
         };
         let mut builder = SceneBuilder::new();
+        let mut media = BTreeMap::new();
+        for (name, m) in &file.media {
+            let key = format!("media.{name}");
+            let sigma_a = self.colour(&format!("{key}.sigma_a"), m.sigma_a)?;
+            let sigma_s = self.colour(&format!("{key}.sigma_s"), m.sigma_s)?;
+            if !(m.g.is_finite() && m.g.abs() < 1.0) {
+                return Err(self.invalid(format!("{key}.g"), "must be in (-1, 1)"));
+            }
+            let medium = HomogeneousMedium { sigma_a, sigma_s, phase: HenyeyGreenstein { g: m.g } };
+            media.insert(name.clone(), builder.medium(medium));
+        }
+        if let Some(name) = &file.global_medium {
+            let id =
+                media.get(name).ok_or_else(|| self.invalid("global_medium", format!("no medium named {name:?}")))?;
+            builder.global_medium(*id);
+        }
         let mut ids = BTreeMap::new();
         for (name, m) in &file.materials {
             ids.insert(name.clone(), builder.material(self.material(&format!("materials.{name}"), m)?));
         }
         for (k, s) in file.shapes.iter().enumerate() {
-            self.shape(&mut builder, &ids, &format!("shapes[{k}]"), s)?;
+            self.shape(&mut builder, &ids, &media, &format!("shapes[{k}]"), s)?;
         }
         for (k, l) in file.lights.iter().enumerate() {
             builder.light(self.light(&format!("lights[{k}]"), l)?);
@@ -535,6 +575,7 @@ impl Builder<'_> {
                 }
                 Material::CookTorrance { kd, ks, m: *roughness, eta: ior(*v)? }
             }
+            MaterialSection::Interface => Material::Interface,
         })
     }
 
@@ -595,9 +636,18 @@ impl Builder<'_> {
         &self,
         builder: &mut SceneBuilder,
         ids: &BTreeMap<String, u32>,
+        media: &BTreeMap<String, u32>,
         key: &str,
         s: &ShapeSection,
     ) -> Result<(), SceneFileError> {
+        let interior = match &s.interior {
+            Some(name) => Some(
+                *media
+                    .get(name)
+                    .ok_or_else(|| self.invalid(format!("{key}.interior"), format!("no medium named {name:?}")))?,
+            ),
+            None => None,
+        };
         let material = *ids
             .get(&s.material)
             .ok_or_else(|| self.invalid(format!("{key}.material"), format!("no material named {:?}", s.material)))?;
@@ -631,7 +681,7 @@ impl Builder<'_> {
                 {
                     return Err(self.invalid(format!("{key}.scale"), "a sphere needs a uniform scale"));
                 }
-                builder.sphere(centre, r * scale.x.abs(), material, emission);
+                builder.sphere_with_medium(centre, r * scale.x.abs(), material, emission, interior);
                 return Ok(());
             }
             "mesh" => {
@@ -665,7 +715,7 @@ impl Builder<'_> {
                 ));
             }
         };
-        builder.mesh(&mesh.transformed(&m), material, emission);
+        builder.mesh_with_medium(&mesh.transformed(&m), material, emission, interior);
         Ok(())
     }
 

@@ -189,3 +189,29 @@ material = "t"
     let err = lucid_trace::load_scene(&dir.path().join("c.toml")).unwrap_err().to_string();
     assert!(err.contains("materials.t.albedo") && err.contains("missing.png"), "{err}");
 }
+
+#[test]
+fn every_shipped_scene_loads_and_renders_finite_pixels() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let loaded = lucid_trace::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        let pinhole = match loaded.camera {
+            RenderCamera::Pinhole(c) => c,
+            RenderCamera::ThinLens(c) => c.pinhole,
+        };
+        let small = lucid_scene::Intrinsics::from_fov_x(24, 16, pinhole.intrinsics.fov_x());
+        let camera = RenderCamera::Pinhole(lucid_scene::PinholeCamera::new(small, pinhole.camera_to_world));
+        let settings = lucid_trace::RenderSettings { spp: 2, ..loaded.settings };
+        let out = lucid_trace::render(&loaded.scene, &camera, &settings, &|_| {});
+        assert!(out.colour.is_finite(), "{}", path.display());
+        let m = out.colour.mean();
+        assert!(m[0] + m[1] + m[2] > 0.01, "{} renders black", path.display());
+        count += 1;
+    }
+    assert!(count >= 4, "scenes found: {count}");
+}

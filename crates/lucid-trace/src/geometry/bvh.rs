@@ -250,6 +250,7 @@ mod tests {
                     material: 0,
                     light: None,
                     interior_medium: None,
+                    exterior_medium: None,
                 }
             })
             .collect()

@@ -87,6 +87,8 @@ pub struct Primitive {
     pub light: Option<u32>,
     /// Index into the scene's media for the inside of a closed mesh, if any.
     pub interior_medium: Option<u32>,
+    /// The medium outside such a mesh (the scene's global medium, if any).
+    pub exterior_medium: Option<u32>,
 }
 
 /// Where a ray meets a primitive.
