@@ -2,10 +2,10 @@
 //! flattened into an array for traversal. Written by hand: the crates that exist either
 //! own the primitive type or lack any-hit queries for shadow rays, and this is ~200 lines.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use lucid_scene::Ray;
 
-use super::{Aabb, Intersection, Primitive};
+use super::{Aabb, Intersection, Primitive, Shape};
 
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
@@ -27,7 +27,76 @@ struct Node {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<Node>,
+    /// The nodes' boxes in SIMD form, for traversal.
+    boxes: Vec<[Vec3A; 2]>,
     primitives: Vec<Primitive>,
+    /// What traversal tests, one cache line per primitive: the full records are read only
+    /// for the final hit.
+    compact: Vec<CompactShape>,
+}
+
+/// Intersection data in SIMD-friendly form: a triangle as a vertex and two edges.
+#[derive(Clone, Copy, Debug)]
+enum CompactShape {
+    Triangle { p0: Vec3A, e1: Vec3A, e2: Vec3A },
+    Sphere { centre: Vec3A, radius2: f32 },
+}
+
+impl CompactShape {
+    fn new(shape: &Shape) -> Self {
+        match *shape {
+            Shape::Triangle { p, .. } => {
+                CompactShape::Triangle { p0: p[0].into(), e1: (p[1] - p[0]).into(), e2: (p[2] - p[0]).into() }
+            }
+            Shape::Sphere { centre, radius } => {
+                CompactShape::Sphere { centre: centre.into(), radius2: radius * radius }
+            }
+        }
+    }
+
+    /// `(t, u, v)` of the nearest hit in `(t_min, t_max)`, as [`Shape::intersect`].
+    #[inline(always)]
+    fn intersect(&self, origin: Vec3A, dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        match *self {
+            CompactShape::Triangle { p0, e1, e2 } => {
+                let pv = dir.cross(e2);
+                let det = e1.dot(pv);
+                if det.abs() < 1e-12 {
+                    return None;
+                }
+                let inv = 1.0 / det;
+                let tv = origin - p0;
+                let u = tv.dot(pv) * inv;
+                if !(0.0..=1.0).contains(&u) {
+                    return None;
+                }
+                let qv = tv.cross(e1);
+                let v = dir.dot(qv) * inv;
+                if v < 0.0 || u + v > 1.0 {
+                    return None;
+                }
+                let t = e2.dot(qv) * inv;
+                (t > t_min && t < t_max).then_some((t, u, v))
+            }
+            CompactShape::Sphere { centre, radius2 } => {
+                let oc = origin - centre;
+                let b = oc.dot(dir);
+                let disc = b * b - (oc.length_squared() - radius2);
+                if disc < 0.0 {
+                    return None;
+                }
+                let sq = disc.sqrt();
+                let (t0, t1) = (-b - sq, -b + sq);
+                if t0 > t_min && t0 < t_max {
+                    Some((t0, 0.0, 0.0))
+                } else if t1 > t_min && t1 < t_max {
+                    Some((t1, 0.0, 0.0))
+                } else {
+                    None
+                }
+            }
+        }
+    }
 }
 
 struct BuildItem {
@@ -51,8 +120,10 @@ impl Bvh {
         if !items.is_empty() {
             build(&mut items, 0, &mut nodes);
         }
-        let ordered = items.iter().map(|it| primitives[it.index]).collect();
-        Self { nodes, primitives: ordered }
+        let ordered: Vec<Primitive> = items.iter().map(|it| primitives[it.index]).collect();
+        let compact = ordered.iter().map(|p| CompactShape::new(&p.shape)).collect();
+        let boxes = nodes.iter().map(|n| [n.bounds.min.into(), n.bounds.max.into()]).collect();
+        Self { nodes, boxes, primitives: ordered, compact }
     }
 
     /// The primitives in BVH order: [`Intersection::primitive`] indexes this slice.
@@ -69,9 +140,9 @@ impl Bvh {
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Intersection> {
         let mut best: Option<(f32, f32, f32, u32)> = None;
         let mut closest = t_max;
+        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
         self.traverse(ray, &mut closest, |prim_index, t_far| {
-            let p = &self.primitives[prim_index as usize];
-            if let Some((t, u, v)) = p.shape.intersect(ray, t_min, *t_far) {
+            if let Some((t, u, v)) = self.compact[prim_index as usize].intersect(origin, dir, t_min, *t_far) {
                 *t_far = t;
                 best = Some((t, u, v, prim_index));
             }
@@ -84,8 +155,9 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut far = t_max;
         let mut hit = false;
+        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
         self.traverse(ray, &mut far, |prim_index, t_far| {
-            if self.primitives[prim_index as usize].shape.intersect(ray, t_min, *t_far).is_some() {
+            if self.compact[prim_index as usize].intersect(origin, dir, t_min, *t_far).is_some() {
                 hit = true;
                 return true;
             }
@@ -100,14 +172,20 @@ impl Bvh {
         if self.nodes.is_empty() {
             return;
         }
-        let inv_dir = ray.direction.recip();
+        let inv_dir = Vec3A::from(ray.direction).recip();
+        let origin = Vec3A::from(ray.origin);
         let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
         let mut stack = [0u32; 64];
         let mut top = 0;
         let mut current = 0u32;
         loop {
             let node = &self.nodes[current as usize];
-            if node.bounds.hit(ray.origin, inv_dir, *t_far).is_some() {
+            let [lo, hi] = self.boxes[current as usize];
+            let t0 = (lo - origin) * inv_dir;
+            let t1 = (hi - origin) * inv_dir;
+            let near = t0.min(t1).max_element().max(0.0);
+            let far = t0.max(t1).min_element().min(*t_far);
+            if near <= far {
                 if node.count > 0 {
                     for i in node.offset..node.offset + node.count as u32 {
                         if visit(i, t_far) {
