@@ -82,3 +82,19 @@ fn bad_scene_files_fail_with_file_and_key_and_write_nothing() {
     lucid_in(dir.path(), &["render", &cornell(), "-o", "out.exr", "--spp", "0"]).failure(&["--spp"]);
     assert_eq!(files_under(dir.path()), before);
 }
+
+#[test]
+fn bench_trace_quick_prints_a_table_and_writes_json() {
+    let dir = temp_dir();
+    let run = lucid_in(dir.path(), &["bench", "trace", "--quick", "--json", "bench.json"]).success();
+    for row in ["wall time (s)", "paths/s (M)", "rays/s (M)", "image mean", "reference mean"] {
+        assert!(run.stdout.contains(row), "{}", run.stdout);
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("bench.json")).unwrap()).unwrap();
+    assert_eq!((json["width"].as_u64(), json["spp"].as_u64()), (Some(64), Some(16)));
+    assert!(json["rays"].as_u64().unwrap() >= json["paths"].as_u64().unwrap());
+    // A 64x64, 16 spp render of the reference scene lands near its mean (loose: ~2% noise).
+    let mean = json["image_mean"].as_f64().unwrap();
+    assert!((mean - 0.1470).abs() < 0.006, "{mean}");
+}

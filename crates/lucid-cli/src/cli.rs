@@ -35,6 +35,29 @@ pub enum Command {
     /// Path-trace a scene file (configs/scenes/*.toml) to EXR + PNG with depth, normal and
     /// albedo buffers.
     Render(RenderArgs),
+    /// Benchmarks with fixed seeds: `trace` renders the reference Cornell box.
+    Bench(BenchArgs),
+}
+
+/// What to benchmark.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum BenchTarget {
+    /// The path tracer on the reference Cornell box (256x256, 64 spp, max depth 8).
+    Trace,
+}
+
+/// `lucid bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Which benchmark.
+    #[arg(value_enum)]
+    pub target: BenchTarget,
+    /// A short smoke version (smaller image, fewer samples).
+    #[arg(long)]
+    pub quick: bool,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// `lucid render`.

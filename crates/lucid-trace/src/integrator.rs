@@ -29,11 +29,27 @@ pub struct PathTracer {
     /// Do not show emitters (area lights, environment) to camera rays, so that the
     /// background stays transparent; they still light the scene.
     pub hide_emitters: bool,
+    /// How emitters are found.
+    pub strategy: LightStrategy,
+}
+
+/// How a path finds light: the three converge to the same image (a test checks it); MIS
+/// has the least noise. Only next-event estimation reaches point, spot and directional
+/// lights, which BSDF sampling never hits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightStrategy {
+    /// Light sampling and BSDF sampling combined by the power heuristic.
+    #[default]
+    Mis,
+    /// Light sampling only (emitters hit by BSDF samples count only after specular bounces).
+    NextEventOnly,
+    /// BSDF sampling only.
+    BsdfOnly,
 }
 
 impl Default for PathTracer {
     fn default() -> Self {
-        Self { max_depth: 8, rr_depth: 5, hide_emitters: false }
+        Self { max_depth: 8, rr_depth: 5, hide_emitters: false, strategy: LightStrategy::Mis }
     }
 }
 
@@ -50,6 +66,8 @@ pub struct PathSample {
     pub normal: Vec3,
     /// Albedo of the first hit's material.
     pub albedo: Vec3,
+    /// Rays traced (closest-hit and shadow), for throughput reports.
+    pub rays: u32,
 }
 
 /// A local shading frame around a normal.
@@ -102,6 +120,7 @@ impl PathTracer {
         let mut crossings = 0;
         loop {
             let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
+            out.rays += 1;
 
             // Flight through the current medium: maybe a scattering event before the surface.
             if let Some(m) = medium {
@@ -122,7 +141,7 @@ impl PathTracer {
                         let tr =
                             self.transmittance(scene, Ray { origin: point, direction: ls.wi }, ls.distance, medium);
                         if tr != Vec3::ZERO {
-                            let weight = if ls.delta { 1.0 } else { power_heuristic(light_pdf, f) };
+                            let weight = self.light_sample_weight(ls.delta, light_pdf, f);
                             out.radiance += beta * f * tr * ls.li * weight / light_pdf;
                         }
                     }
@@ -144,10 +163,7 @@ impl PathTracer {
                     && !(segments == 1 && self.hide_emitters)
                     && let Some((radiance, env_pdf)) = scene.lights[env].environment(ray.direction)
                 {
-                    let weight = match prev_pdf {
-                        Some(pdf) => power_heuristic(pdf, light_pick * env_pdf),
-                        None => 1.0,
-                    };
+                    let weight = self.emission_weight(prev_pdf, light_pick * env_pdf);
                     out.radiance += beta * radiance * weight;
                 }
                 break;
@@ -177,13 +193,10 @@ impl PathTracer {
                 let light = &scene.lights[l as usize];
                 let le = light.emitted(hit.geometric_normal, -ray.direction);
                 if le != Vec3::ZERO {
-                    let weight = match prev_pdf {
-                        Some(pdf) => power_heuristic(
-                            pdf,
-                            light_pick * light.pdf_area(prev_point, hit.point, hit.geometric_normal),
-                        ),
-                        None => 1.0,
-                    };
+                    let weight = self.emission_weight(
+                        prev_pdf,
+                        light_pick * light.pdf_area(prev_point, hit.point, hit.geometric_normal),
+                    );
                     out.radiance += beta * le * weight;
                 }
             }
@@ -203,8 +216,9 @@ impl PathTracer {
                 if f != Vec3::ZERO {
                     let shadow_medium = medium_across(medium, primitive, ls.wi, &hit);
                     let tr = self.transmittance(scene, spawn(&hit, ls.wi), ls.distance, shadow_medium);
+                    out.rays += 1;
                     if tr != Vec3::ZERO {
-                        let weight = if ls.delta { 1.0 } else { power_heuristic(light_pdf, bsdf.pdf(wo, wi)) };
+                        let weight = self.light_sample_weight(ls.delta, light_pdf, bsdf.pdf(wo, wi));
                         out.radiance += beta * f * wi.z.abs() * tr * ls.li * weight / light_pdf;
                     }
                 }
@@ -231,9 +245,30 @@ impl PathTracer {
         out
     }
 
+    /// MIS weight of emission reached by sampling the previous vertex's BSDF or phase
+    /// function with density `prev_pdf` (`None`: a specular bounce or the camera ray).
+    fn emission_weight(&self, prev_pdf: Option<f32>, light_pdf: f32) -> f32 {
+        match (self.strategy, prev_pdf) {
+            (_, None) => 1.0,
+            (LightStrategy::Mis, Some(pdf)) => power_heuristic(pdf, light_pdf),
+            (LightStrategy::NextEventOnly, Some(_)) => 0.0,
+            (LightStrategy::BsdfOnly, Some(_)) => 1.0,
+        }
+    }
+
+    /// MIS weight of a light sample whose direction the BSDF would pick with `bsdf_pdf`.
+    fn light_sample_weight(&self, delta: bool, light_pdf: f32, bsdf_pdf: f32) -> f32 {
+        match self.strategy {
+            _ if delta => 1.0,
+            LightStrategy::Mis => power_heuristic(light_pdf, bsdf_pdf),
+            LightStrategy::NextEventOnly => 1.0,
+            LightStrategy::BsdfOnly => 0.0,
+        }
+    }
+
     /// Picks one light uniformly and samples it from `point`: `(selection × light pdf, sample)`.
     fn pick_light(&self, scene: &Scene, point: Vec3, light_pick: f32, rng: &mut Rng) -> Option<(f32, LightSample)> {
-        if scene.lights.is_empty() {
+        if scene.lights.is_empty() || self.strategy == LightStrategy::BsdfOnly {
             return None;
         }
         let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);

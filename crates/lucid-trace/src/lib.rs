@@ -15,7 +15,7 @@ pub mod sampling;
 pub mod scene;
 pub mod scene_file;
 
-pub use integrator::PathTracer;
+pub use integrator::{LightStrategy, PathTracer};
 pub use material::{Material, Texture};
 pub use render::{RenderCamera, RenderOutput, RenderSettings, render};
 pub use scene::{Emission, Scene, SceneBuilder};

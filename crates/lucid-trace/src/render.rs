@@ -60,6 +60,10 @@ pub struct RenderOutput {
     pub normal: Image,
     /// Albedo of the first hit.
     pub albedo: Image,
+    /// Camera paths traced.
+    pub paths: u64,
+    /// Rays traced (closest-hit and shadow rays).
+    pub rays: u64,
 }
 
 /// Renders `scene` through `camera`; `progress(rows_done)` is called as rows finish.
@@ -74,16 +78,30 @@ pub fn render(
     let forward = camera.pinhole().forward();
     let spp = settings.spp.max(1);
     let done = AtomicUsize::new(0);
-    let rows: Vec<Vec<[[f32; 4]; 4]>> = (0..h)
+    let rows: Vec<(Vec<[[f32; 4]; 4]>, u64)> = (0..h)
         .into_par_iter()
         .map(|j| {
-            let row = (0..w).map(|i| render_pixel(scene, camera, settings, forward, spp, i, j, w)).collect();
+            let mut rays = 0u64;
+            let row = (0..w)
+                .map(|i| {
+                    let (pixel, r) = render_pixel(scene, camera, settings, forward, spp, i, j, w);
+                    rays += r;
+                    pixel
+                })
+                .collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            row
+            (row, rays)
         })
         .collect();
-    let plane = |c: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.iter().map(|p| p[c])).collect());
-    RenderOutput { colour: plane(0), depth: plane(1), normal: plane(2), albedo: plane(3) }
+    let plane = |c: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.0.iter().map(|p| p[c])).collect());
+    RenderOutput {
+        colour: plane(0),
+        depth: plane(1),
+        normal: plane(2),
+        albedo: plane(3),
+        paths: (w * h) as u64 * spp as u64,
+        rays: rows.iter().map(|r| r.1).sum(),
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -96,8 +114,9 @@ fn render_pixel(
     i: usize,
     j: usize,
     width: usize,
-) -> [[f32; 4]; 4] {
+) -> ([[f32; 4]; 4], u64) {
     let mut rng = Rng::new(settings.seed, (j * width + i) as u64);
+    let mut rays = 0u64;
     let (mut radiance, mut normal, mut albedo) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     let (mut alpha, mut depth) = (0.0f32, 0.0f32);
     for _ in 0..spp {
@@ -105,6 +124,7 @@ fn render_pixel(
         let lens = rng.uniform2();
         let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
         let s = settings.integrator.trace(scene, ray, &mut rng);
+        rays += s.rays as u64;
         // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
         // poisoning the pixel; a finite image is part of the contract.
         if s.radiance.is_finite() {
@@ -129,10 +149,11 @@ fn render_pixel(
     };
     let covered = alpha.max(1.0);
     let d = depth / covered;
-    [
+    let pixel = [
         colour.extend(a).to_array(),
         [d, d, d, a],
         normal.normalize_or_zero().extend(a).to_array(),
         (albedo / covered).extend(a).to_array(),
-    ]
+    ];
+    (pixel, rays)
 }

@@ -430,7 +430,12 @@ impl Builder<'_> {
         let settings = RenderSettings {
             spp: i.spp,
             seed: i.seed,
-            integrator: PathTracer { max_depth: i.max_depth, rr_depth: i.rr_depth, hide_emitters: i.hide_emitters },
+            integrator: PathTracer {
+                max_depth: i.max_depth,
+                rr_depth: i.rr_depth,
+                hide_emitters: i.hide_emitters,
+                ..PathTracer::default()
+            },
         };
         let mut builder = SceneBuilder::new();
         let mut media = BTreeMap::new();

@@ -5,7 +5,9 @@ use glam::{Mat4, Vec3};
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_trace::geometry::procedural::quad;
 use lucid_trace::light::Light;
-use lucid_trace::{Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, load_scene, render};
+use lucid_trace::{
+    LightStrategy, Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, load_scene, render,
+};
 
 fn lambert(albedo: Vec3) -> Material {
     Material::Lambertian { albedo: Texture::Constant(albedo) }
@@ -33,7 +35,7 @@ fn convex_diffuse_object_in_a_uniform_environment_reflects_albedo_times_radiance
         let settings = RenderSettings {
             spp: 256,
             seed: 1,
-            integrator: PathTracer { max_depth: 16, rr_depth: 5, hide_emitters: true },
+            integrator: PathTracer { max_depth: 16, rr_depth: 5, hide_emitters: true, ..PathTracer::default() },
         };
         let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
         let (mut sum, mut n) = (0.0f64, 0);
@@ -60,8 +62,11 @@ fn point_light_on_a_plane_follows_the_inverse_square_law() {
     let scene = b.build();
     let cam =
         PinholeCamera::new(Intrinsics::from_fov_x(9, 9, 0.01), look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y));
-    let settings =
-        RenderSettings { spp: 4, seed: 2, integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false } };
+    let settings = RenderSettings {
+        spp: 4,
+        seed: 2,
+        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+    };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let expected = 0.8 / std::f32::consts::PI * 10.0 / 4.0;
     let centre = out.colour.get(4, 4)[0];
@@ -160,9 +165,74 @@ fn diffuse_plane_under_an_environment_map_reflects_its_cosine_weighted_integral(
     let settings = RenderSettings {
         spp: 20_000,
         seed: 3,
-        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false },
+        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
     };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let got = mean_rgb(&out.colour);
     assert!(((got - expected) / expected).abs().max_element() < 0.01, "{got} vs {expected}");
+}
+
+#[test]
+fn light_sampling_bsdf_sampling_and_mis_converge_to_the_same_image() {
+    // The Cornell box: a small area light, so each strategy has its own noise profile.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes/cornell.toml");
+    let loaded = load_scene(&path).unwrap();
+    let RenderCamera::Pinhole(cam) = loaded.camera else { panic!() };
+    let camera = RenderCamera::Pinhole(PinholeCamera::new(
+        Intrinsics::from_fov_x(32, 32, cam.intrinsics.fov_x()),
+        cam.camera_to_world,
+    ));
+    let mean_for = |strategy: LightStrategy, spp: u32| {
+        let settings =
+            RenderSettings { spp, seed: 11, integrator: PathTracer { strategy, ..loaded.settings.integrator } };
+        let m = mean_rgb(&render(&loaded.scene, &camera, &settings, &|_| {}).colour);
+        (m.x + m.y + m.z) / 3.0
+    };
+    let mis = mean_for(LightStrategy::Mis, 256);
+    let nee = mean_for(LightStrategy::NextEventOnly, 256);
+    // BSDF sampling alone finds the small light rarely: many more samples for the same noise.
+    let bsdf = mean_for(LightStrategy::BsdfOnly, 4096);
+    assert!((mis - nee).abs() < 0.01 * mis, "MIS {mis} vs NEE {nee}");
+    assert!((mis - bsdf).abs() < 0.015 * mis, "MIS {mis} vs BSDF {bsdf}");
+}
+
+#[test]
+fn white_furnace_for_every_lossless_bsdf() {
+    // A sphere of each non-absorbing material (albedo 1) in a uniform environment of radiance
+    // 1 must render 1: it can only redistribute light. The GGX conductor at low roughness loses
+    // little to masking (within the 1% floor). The phenomenological models (Phong, Ward,
+    // Ashikhmin–Shirley…) reflect less than 1 at oblique angles by design: their bound is
+    // checked per BSDF in the unit tests instead (Ashikhmin–Shirley with Rd = 1 renders 0.92).
+    use lucid_trace::material::Material as M;
+    let white = Texture::Constant(Vec3::ONE);
+    let materials = [
+        ("lambertian", M::Lambertian { albedo: white.clone() }),
+        ("dielectric", M::Dielectric { eta: 1.5, transmittance: Vec3::ONE }),
+        ("plastic", M::Plastic { albedo: white.clone(), eta: 1.5 }),
+        ("conductor α=0.01", M::Conductor { eta: Vec3::ZERO, k: Vec3::splat(1e4), alpha: glam::Vec2::splat(0.01) }),
+        (
+            "ashikhmin-shirley",
+            M::AshikhminShirley { rd: white.clone(), rs: Vec3::splat(0.05), exponents: glam::Vec2::splat(5000.0) },
+        ),
+        ("interface", M::Interface),
+    ];
+    for (name, material) in materials {
+        let mut b = SceneBuilder::new();
+        let m = b.material(material);
+        b.sphere(Vec3::ZERO, 1.0, m, None);
+        b.light(Light::ConstantEnvironment { radiance: Vec3::ONE });
+        let scene = b.build();
+        let cam = PinholeCamera::new(
+            Intrinsics::from_fov_x(12, 12, 0.35),
+            look_at(Vec3::new(0.0, -4.0, 0.5), Vec3::ZERO, Vec3::Z),
+        );
+        let settings = RenderSettings {
+            spp: 256,
+            seed: 5,
+            integrator: PathTracer { max_depth: 1000, rr_depth: 1000, hide_emitters: false, ..PathTracer::default() },
+        };
+        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+        let got = mean_rgb(&out.colour);
+        assert!((got - Vec3::ONE).abs().max_element() < 0.01, "{name}: {got}");
+    }
 }

@@ -32,7 +32,7 @@ fn absorbing_slab_transmits_exp_of_minus_sigma_a_times_thickness() {
     let settings = RenderSettings {
         spp: 4096,
         seed: 1,
-        integrator: PathTracer { max_depth: 8, rr_depth: 5, hide_emitters: false },
+        integrator: PathTracer { max_depth: 8, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
     };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let got = mean(&out.colour);
@@ -53,7 +53,7 @@ fn smoke_sphere_mean(sigma_s: Vec3, g: f32, spp: u32) -> Vec3 {
     let settings = RenderSettings {
         spp,
         seed: 2,
-        integrator: PathTracer { max_depth: 100_000, rr_depth: 64, hide_emitters: false },
+        integrator: PathTracer { max_depth: 100_000, rr_depth: 64, hide_emitters: false, ..PathTracer::default() },
     };
     mean(&render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).colour)
 }

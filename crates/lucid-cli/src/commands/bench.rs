@@ -1,0 +1,75 @@
+//! `lucid bench`: fixed-seed benchmarks that print a table (and optionally JSON).
+
+use std::io::Write;
+use std::path::Path;
+
+use lucid_scene::{Intrinsics, PinholeCamera};
+use lucid_trace::{RenderCamera, parse_scene, render};
+use serde_json::json;
+
+use crate::cli::{BenchArgs, BenchTarget};
+
+/// The reference scene, compiled in so the benchmark runs from any directory.
+const CORNELL: &str = include_str!("../../../../configs/scenes/cornell.toml");
+/// Image mean of the reference render (shared/reference/cornell-box.md).
+const CORNELL_REFERENCE_MEAN: f64 = 0.1470;
+
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    let result = match args.target {
+        BenchTarget::Trace => bench_trace(args.quick)?,
+    };
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&result)?;
+        lucid_image::write_atomically(path, |out| {
+            out.write_all(text.as_bytes()).map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
+        })?;
+        println!("results written to {}", path.display());
+    }
+    Ok(())
+}
+
+fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
+    let mut loaded = parse_scene(CORNELL, Path::new("configs/scenes/cornell.toml"))?;
+    if quick {
+        let RenderCamera::Pinhole(c) = loaded.camera else { anyhow::bail!("the Cornell camera is a pinhole") };
+        loaded.camera = RenderCamera::Pinhole(PinholeCamera::new(
+            Intrinsics::from_fov_x(64, 64, c.intrinsics.fov_x()),
+            c.camera_to_world,
+        ));
+        loaded.settings.spp = 16;
+    }
+    let k = match &loaded.camera {
+        RenderCamera::Pinhole(c) => c.intrinsics,
+        RenderCamera::ThinLens(c) => c.pinhole.intrinsics,
+    };
+    let threads = rayon::current_num_threads();
+    let bar = crate::progress::bar(k.height as u64, "cornell");
+    let started = std::time::Instant::now();
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64));
+    let seconds = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let m = out.colour.mean();
+    let mean = (m[0] + m[1] + m[2]) / 3.0;
+    println!(
+        "lucid bench trace{}: Cornell box {}x{}, {} spp, max depth {}, {threads} threads",
+        if quick { " --quick" } else { "" },
+        k.width,
+        k.height,
+        loaded.settings.spp,
+        loaded.settings.integrator.max_depth
+    );
+    println!("{:<22} {:>14}", "metric", "value");
+    println!("{:<22} {:>14.3}", "wall time (s)", seconds);
+    println!("{:<22} {:>14.3}", "paths/s (M)", out.paths as f64 / seconds / 1e6);
+    println!("{:<22} {:>14.3}", "rays/s (M)", out.rays as f64 / seconds / 1e6);
+    println!("{:<22} {:>14.2}", "rays per path", out.rays as f64 / out.paths as f64);
+    println!("{:<22} {:>14.5}", "image mean", mean);
+    println!("{:<22} {:>14.5}", "reference mean", CORNELL_REFERENCE_MEAN);
+    Ok(json!({
+        "benchmark": "trace", "quick": quick, "width": k.width, "height": k.height,
+        "spp": loaded.settings.spp, "max_depth": loaded.settings.integrator.max_depth, "threads": threads,
+        "seconds": seconds, "paths": out.paths, "rays": out.rays,
+        "paths_per_second": out.paths as f64 / seconds, "rays_per_second": out.rays as f64 / seconds,
+        "image_mean": mean, "reference_mean": CORNELL_REFERENCE_MEAN,
+    }))
+}
