@@ -210,10 +210,6 @@ fn white_furnace_for_every_lossless_bsdf() {
         ("dielectric", M::Dielectric { eta: 1.5, transmittance: Vec3::ONE }),
         ("plastic", M::Plastic { albedo: white.clone(), eta: 1.5 }),
         ("conductor α=0.01", M::Conductor { eta: Vec3::ZERO, k: Vec3::splat(1e4), alpha: glam::Vec2::splat(0.01) }),
-        (
-            "ashikhmin-shirley",
-            M::AshikhminShirley { rd: white.clone(), rs: Vec3::splat(0.05), exponents: glam::Vec2::splat(5000.0) },
-        ),
         ("interface", M::Interface),
     ];
     for (name, material) in materials {
