@@ -74,6 +74,19 @@ fn point_light_on_a_plane_follows_the_inverse_square_law() {
     // The depth buffer holds the z-distance 5 and the normal faces +Z.
     assert!((out.depth.get(4, 4)[0] - 5.0).abs() < 1e-3);
     assert!(out.normal.get(4, 4)[2] > 0.999);
+
+    // Off axis, at (x, 0, 0): E = I·cos θ / r² with cos θ = h/r (the cosine law).
+    for x in [1.0f32, 3.0] {
+        let cam = PinholeCamera::new(
+            Intrinsics::from_fov_x(9, 9, 0.001),
+            look_at(Vec3::new(x, 0.0, 5.0), Vec3::new(x, 0.0, 0.0), Vec3::Y),
+        );
+        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+        let r2 = x * x + 4.0;
+        let expected = 0.8 / std::f32::consts::PI * 10.0 * (2.0 / r2.sqrt()) / r2;
+        let got = out.colour.get(4, 4)[0];
+        assert!((got - expected).abs() < 2e-3 * expected, "x {x}: {got} vs {expected}");
+    }
 }
 
 #[test]

@@ -8,6 +8,8 @@
 mod analytic_tests;
 pub mod ashikhmin_shirley;
 pub mod blinn_phong;
+#[cfg(test)]
+mod chi_square;
 pub mod cook_torrance;
 pub mod dielectric;
 pub mod fresnel;
