@@ -26,13 +26,15 @@ pub struct Scene {
     pub media: Vec<HomogeneousMedium>,
     /// The medium filling the scene (where the camera is), if any.
     pub global_medium: Option<u32>,
+    /// Rays may cross media or index-matched boundaries (computed once by the builder).
+    has_media: bool,
 }
 
 impl Scene {
     /// Whether rays may cross media or index-matched boundaries (shadow rays then need
     /// transmittance rather than a plain occlusion test).
     pub fn has_media(&self) -> bool {
-        !self.media.is_empty() || self.materials.iter().any(|m| matches!(m, Material::Interface))
+        self.has_media
     }
 }
 
@@ -178,7 +180,9 @@ impl SceneBuilder {
                 PendingLight::Area { radiance, two_sided } => Light::area(bvh.primitives(), prims, radiance, two_sided),
             })
             .collect();
+        let has_media = !self.media.is_empty() || self.materials.iter().any(|m| matches!(m, Material::Interface));
         Scene {
+            has_media,
             bvh,
             materials: self.materials,
             lights,
