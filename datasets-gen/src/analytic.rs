@@ -135,7 +135,7 @@ impl AnalyticScene {
 }
 
 impl ViewRenderer for AnalyticScene {
-    fn render(&self, camera: &PinholeCamera) -> RenderedView {
+    fn render(&self, camera: &PinholeCamera, _view: u64) -> RenderedView {
         let k = camera.intrinsics;
         let (w, h) = (k.width as usize, k.height as usize);
         let n = self.samples_per_axis.max(1);
@@ -195,7 +195,7 @@ mod tests {
         let scene = AnalyticScene::default();
         let pose = look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y);
         let cam = PinholeCamera::new(Intrinsics::from_fov_x(33, 33, 0.5), pose);
-        let view = scene.render(&cam);
+        let view = scene.render(&cam, 0);
         let d = view.depth.get(16, 16);
         assert!((d[0] - 2.5).abs() < 1e-3, "{d:?}");
         let n = view.normal.get(16, 16);
@@ -214,7 +214,7 @@ mod tests {
     fn background_is_transparent() {
         let scene = AnalyticScene::default();
         let pose = Mat4::from_translation(Vec3::new(0.0, 10.0, 0.0)); // looks down −Z, misses everything
-        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose));
+        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose), 0);
         assert!(view.colour.pixels().iter().all(|p| p[3] == 0.0));
     }
 }

@@ -2,14 +2,16 @@
 //! NeRF-synthetic layout (`transforms_{train,val,test}.json`, sRGB PNG with alpha, linear EXR,
 //! and per-frame depth/normal/albedo EXR).
 //!
-//! Scenes are rendered by a [`ViewRenderer`]; today that is the exact analytic ray caster of
-//! [`analytic`], whose images need no sampling noise, and the physically based path tracer
-//! plugs in behind the same trait.
+//! Scenes are rendered by a [`ViewRenderer`]: the physically based path tracer for scene files
+//! ([`PathTracedScene`]), or the exact analytic ray caster of [`analytic`], whose noise-free
+//! images make quick fixtures.
 
 pub mod analytic;
+pub mod path_traced;
 pub mod rig;
 pub mod writer;
 
 pub use analytic::AnalyticScene;
+pub use path_traced::PathTracedScene;
 pub use rig::OrbitRig;
 pub use writer::{DatasetSpec, GeneratedDataset, ViewRenderer, generate_dataset};

@@ -30,8 +30,9 @@ pub struct RenderedView {
 
 /// Something that renders a view of a scene.
 pub trait ViewRenderer: Sync {
-    /// Renders the view that `camera` sees.
-    fn render(&self, camera: &PinholeCamera) -> RenderedView;
+    /// Renders the view that `camera` sees; `view` numbers the views of a dataset so that
+    /// stochastic renderers can give each its own random streams.
+    fn render(&self, camera: &PinholeCamera, view: u64) -> RenderedView;
 }
 
 /// What to generate.
@@ -109,7 +110,7 @@ pub fn generate_dataset(
         let mut records = Vec::with_capacity(spec.counts[index]);
         for (i, pose) in spec.rig.poses(spec.counts[index], index as u64).into_iter().enumerate() {
             let camera = PinholeCamera::new(intrinsics, pose);
-            let view = renderer.render(&camera);
+            let view = renderer.render(&camera, (index * 1_000_000 + i) as u64);
             let stem = format!("{}/r_{i}", split.name());
             let ldr = spec.tone_curve.map_image(&view.colour, spec.exposure);
             write_image(root.join(format!("{stem}.png")), &ldr)?;
@@ -165,7 +166,7 @@ mod tests {
         let frame = &ds.frames(Split::Test)[1];
         // The HDR image on disk is what the renderer makes for the pose in the JSON.
         let hdr = lucid_image::read_image(frame.extras.hdr_path.as_ref().unwrap()).unwrap();
-        let again = scene.render(&frame.camera).colour;
+        let again = scene.render(&frame.camera, 0).colour;
         let diff = hdr.pixels().iter().zip(again.pixels()).map(|(a, b)| (a[0] - b[0]).abs()).fold(0.0, f32::max);
         assert!(diff < 1e-5, "max difference {diff}");
         // The scene is in view: some pixels are covered, some are background.

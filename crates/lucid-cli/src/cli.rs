@@ -37,6 +37,50 @@ pub enum Command {
     Render(RenderArgs),
     /// Benchmarks with fixed seeds: `trace` renders the reference Cornell box.
     Bench(BenchArgs),
+    /// Generate a dataset: render a scene (a built-in name or a .toml file) from a camera rig
+    /// into the NeRF-synthetic layout.
+    Gen(GenArgs),
+}
+
+/// Camera rigs of `lucid gen`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum RigArg {
+    /// Cameras on the upper hemisphere (or sphere) around the origin, looking at it.
+    Orbit,
+}
+
+/// `lucid gen`.
+#[derive(Debug, Args)]
+pub struct GenArgs {
+    /// A built-in scene (cornell, spheres, materials, media, object) or a scene .toml file.
+    pub scene: String,
+    /// The camera rig.
+    #[arg(long, value_enum, default_value_t = RigArg::Orbit)]
+    pub rig: RigArg,
+    /// Output dataset folder.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Views in the train, val and test splits, as TRAIN,VAL,TEST.
+    #[arg(long, default_value = "100,10,25", value_parser = parse_split_counts)]
+    pub views: [usize; 3],
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 200)]
+    pub res: u32,
+    /// Samples per pixel (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Seed of the rig and of the renders (default: the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Distance of the orbit cameras from the origin.
+    #[arg(long, default_value_t = 4.0)]
+    pub radius: f32,
+    /// Horizontal field of view in degrees.
+    #[arg(long, default_value_t = 40.0)]
+    pub fov: f32,
+    /// Cameras on the whole sphere instead of the upper hemisphere.
+    #[arg(long)]
+    pub full_sphere: bool,
 }
 
 /// What to benchmark.

@@ -3,6 +3,7 @@
 mod bench;
 mod convert;
 mod demo;
+mod generate;
 mod info;
 mod metrics;
 mod render;
@@ -20,6 +21,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Info(args) => info::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Gen(args) => generate::run(args),
     }
 }
 

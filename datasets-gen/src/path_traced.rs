@@ -1,0 +1,23 @@
+//! Views rendered by the path tracer, for datasets of scene files.
+
+use lucid_scene::PinholeCamera;
+use lucid_trace::{RenderCamera, RenderSettings, Scene, render};
+
+use crate::writer::{RenderedView, ViewRenderer};
+
+/// A scene and its render settings; each view gets its own seed derived from the base seed.
+pub struct PathTracedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Samples per pixel, base seed and integrator.
+    pub settings: RenderSettings,
+}
+
+impl ViewRenderer for PathTracedScene {
+    fn render(&self, camera: &PinholeCamera, view: u64) -> RenderedView {
+        let seed = lucid_trace::sampling::mix(self.settings.seed ^ view.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let settings = RenderSettings { seed, ..self.settings };
+        let out = render(&self.scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {});
+        RenderedView { colour: out.colour, depth: out.depth, normal: out.normal, albedo: out.albedo }
+    }
+}
