@@ -142,9 +142,12 @@ pub struct DemoArgs {
     /// Views in the train, val and test splits, as TRAIN,VAL,TEST.
     #[arg(long, default_value = "24,4,8", value_parser = parse_split_counts)]
     pub views: [usize; 3],
-    /// Seed of the camera rig.
+    /// Seed of the camera rig and the renders.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Samples per pixel of the path tracer.
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
 }
 
 /// Parses `TRAIN,VAL,TEST` view counts.

@@ -1,14 +1,14 @@
-//! `lucid demo`: the README's main command. It generates a small dataset, reads it back and
-//! evaluates what can be evaluated so far: the 8-bit images against the HDR truth, and a
-//! nearest-training-view baseline on the held-out test views (the floor every trained
-//! model must beat). Writes `<out>/dataset/` and `<out>/metrics.json`.
+//! `lucid demo`: the README's main command. It path-traces a small dataset of the built-in
+//! `object` scene, reads it back and evaluates what can be evaluated so far: the 8-bit images
+//! against the HDR truth, and a nearest-training-view baseline on the held-out test views (the
+//! floor every trained model must beat). Writes `<out>/dataset/` and `<out>/metrics.json`.
 
 use std::io::Write;
 
 use anyhow::{Context, bail};
 use glam::{Vec3, Vec4Swizzles};
 use lucid_datasets_gen::writer::DatasetSpec;
-use lucid_datasets_gen::{AnalyticScene, OrbitRig, generate_dataset};
+use lucid_datasets_gen::{OrbitRig, PathTracedScene, generate_dataset};
 use lucid_image::metrics::{MetricSpace, MetricSummary};
 use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
@@ -21,6 +21,9 @@ use crate::cli::DemoArgs;
 const BACKGROUND: [f32; 3] = [1.0, 1.0, 1.0];
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+    if args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
     if args.size < 16 {
         bail!("--size {} is too small: SSIM needs images of at least 16 pixels", args.size);
     }
@@ -40,9 +43,13 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         exposure: 0.0,
         tone_curve: ToneCurve::Aces,
     };
-    tracing::info!("generating {} views of the analytic scene into {}", train + val + test, root.display());
+    let mut loaded = super::generate::load_named_scene("object")?;
+    loaded.settings.spp = args.spp;
+    loaded.settings.seed = args.seed;
+    tracing::info!("path-tracing {} views of the object scene into {}", train + val + test, root.display());
+    let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     let bar = crate::progress::bar((train + val + test) as u64, "rendering");
-    generate_dataset(&root, &spec, &AnalyticScene::default(), &|done, _| bar.set_position(done as u64))
+    generate_dataset(&root, &spec, &renderer, &|done, _| bar.set_position(done as u64))
         .context("generating the demo dataset")?;
     bar.finish_and_clear();
 
@@ -79,7 +86,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let n = MetricSummary::from_images(&nearest);
     let elapsed = started.elapsed().as_secs_f64();
 
-    println!("Lucid demo: analytic scene, {0}x{0} pixels, {train}/{val}/{test} train/val/test views", args.size);
+    println!(
+        "Lucid demo: object scene, {0}x{0} pixels, {1} spp, {train}/{val}/{test} train/val/test views",
+        args.size, args.spp
+    );
     println!("dataset: {}", root.display());
     println!();
     println!("{:<44} {:>9} {:>7}", "test views (sRGB, white background)", "PSNR dB", "SSIM");
@@ -89,7 +99,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     println!("done in {elapsed:.1} s");
 
     let report = json!({
-        "scene": "analytic", "size": args.size, "views": [train, val, test], "seed": args.seed,
+        "scene": "object", "size": args.size, "spp": args.spp, "views": [train, val, test], "seed": args.seed,
         "background": BACKGROUND, "space": "srgb",
         "dataset": summary,
         "metrics": {

@@ -3,7 +3,7 @@
 mod bench;
 mod convert;
 mod demo;
-mod generate;
+pub mod generate;
 mod info;
 mod metrics;
 mod render;
