@@ -8,10 +8,13 @@
 
 pub mod analytic;
 pub mod path_traced;
+pub mod point_cloud;
 pub mod rig;
 pub mod writer;
 
 pub use analytic::AnalyticScene;
 pub use path_traced::PathTracedScene;
 pub use rig::OrbitRig;
-pub use writer::{DatasetSpec, GeneratedDataset, ViewRenderer, generate_dataset};
+pub use writer::{
+    DatasetSpec, GeneratedDataset, Shard, ViewRenderer, finish_dataset, generate_dataset, missing_frames,
+};

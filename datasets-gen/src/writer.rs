@@ -78,21 +78,86 @@ pub enum GenError {
     Spec(String),
 }
 
-/// Where a generated dataset went.
+/// Which frames this run renders: all of them, or every `count`-th starting at `index`
+/// (frames are numbered across the train, val and test splits in that order), so that
+/// `count` machines can split one dataset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, `0..count`.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl Shard {
+    /// The whole dataset.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    fn owns(&self, frame: usize) -> bool {
+        frame % self.count == self.index
+    }
+}
+
+/// What a generation run did.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GeneratedDataset {
     /// The folder.
     pub root: PathBuf,
-    /// Views written per split (train, val, test).
+    /// Views per split (train, val, test).
     pub counts: [usize; 3],
+    /// Frames rendered by this run.
+    pub rendered: usize,
+    /// Frames of this shard found finished and skipped.
+    pub skipped: usize,
+    /// Whether every frame exists, so the transforms files and the point cloud were written.
+    pub complete: bool,
 }
 
-/// Renders every view and writes the dataset into `root` (created if needed). `progress`
-/// is called after each view with `(done, total)`.
+/// One frame of the dataset: where it belongs and what it is called.
+struct PlannedFrame {
+    split: usize,
+    index: usize,
+    pose: glam::Mat4,
+    stem: String,
+}
+
+impl PlannedFrame {
+    fn files(&self) -> [String; 5] {
+        let s = &self.stem;
+        [
+            format!("{s}.png"),
+            format!("{s}.exr"),
+            format!("{s}_depth.exr"),
+            format!("{s}_normal.exr"),
+            format!("{s}_albedo.exr"),
+        ]
+    }
+
+    fn finished(&self, root: &Path) -> bool {
+        self.files().iter().all(|f| root.join(f).is_file())
+    }
+}
+
+fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
+    let mut frames = Vec::new();
+    for (split_index, split) in Split::ALL.into_iter().enumerate() {
+        for (i, pose) in spec.rig.poses(spec.counts[split_index], split_index as u64).into_iter().enumerate() {
+            frames.push(PlannedFrame { split: split_index, index: i, pose, stem: format!("{}/r_{i}", split.name()) });
+        }
+    }
+    frames
+}
+
+/// Renders the frames of `shard` that are not finished yet into `root` (created if needed),
+/// each file written atomically; when every frame of the dataset exists, writes the
+/// transforms files and `points3d.ply`. Running again after an interruption, or once more
+/// without a shard after all shards finished (the merge), completes the dataset.
+/// `progress` is called after each rendered frame with `(done, to_do)`.
 pub fn generate_dataset(
     root: &Path,
     spec: &DatasetSpec,
     renderer: &dyn ViewRenderer,
+    shard: Shard,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<GeneratedDataset, GenError> {
     if spec.width == 0 || spec.height == 0 {
@@ -101,46 +166,168 @@ pub fn generate_dataset(
     if !(spec.fov_x > 0.0 && spec.fov_x < std::f32::consts::PI) {
         return Err(GenError::Spec(format!("field of view {} rad must be in (0, π)", spec.fov_x)));
     }
+    if shard.count == 0 || shard.index >= shard.count {
+        return Err(GenError::Spec(format!("shard {}/{} does not exist", shard.index, shard.count)));
+    }
     let intrinsics = Intrinsics::from_fov_x(spec.width, spec.height, spec.fov_x);
-    let total: usize = spec.counts.iter().sum();
-    let mut done = 0;
-    for (index, split) in Split::ALL.into_iter().enumerate() {
+    let frames = plan(spec);
+    for split in Split::ALL {
         let folder = root.join(split.name());
         std::fs::create_dir_all(&folder).map_err(|source| GenError::Io { path: folder.clone(), source })?;
-        let mut records = Vec::with_capacity(spec.counts[index]);
-        for (i, pose) in spec.rig.poses(spec.counts[index], index as u64).into_iter().enumerate() {
-            let camera = PinholeCamera::new(intrinsics, pose);
-            let view = renderer.render(&camera, (index * 1_000_000 + i) as u64);
-            let stem = format!("{}/r_{i}", split.name());
-            let ldr = spec.tone_curve.map_image(&view.colour, spec.exposure);
-            write_image(root.join(format!("{stem}.png")), &ldr)?;
-            write_image(root.join(format!("{stem}.exr")), &view.colour)?;
-            let grey = WriteOptions { single_channel: true, ..Default::default() };
-            write_image_with(root.join(format!("{stem}_depth.exr")), &view.depth, grey)?;
-            write_image(root.join(format!("{stem}_normal.exr")), &view.normal)?;
-            write_image(root.join(format!("{stem}_albedo.exr")), &view.albedo)?;
-            records.push(FrameRecord {
-                file_path: format!("./{stem}"),
-                camera_to_world: pose,
-                hdr_file_path: Some(format!("{stem}.exr")),
-                depth_file_path: Some(format!("{stem}_depth.exr")),
-                normal_file_path: Some(format!("{stem}_normal.exr")),
-                albedo_file_path: Some(format!("{stem}_albedo.exr")),
-                ..Default::default()
-            });
-            done += 1;
-            progress(done, total);
+        remove_stale_temporaries(&folder);
+    }
+    let mine: Vec<&PlannedFrame> = frames.iter().enumerate().filter(|(g, _)| shard.owns(*g)).map(|(_, f)| f).collect();
+    let to_do: Vec<&&PlannedFrame> = mine.iter().filter(|f| !f.finished(root)).collect();
+    let skipped = mine.len() - to_do.len();
+    for (done, frame) in to_do.iter().enumerate() {
+        let camera = PinholeCamera::new(intrinsics, frame.pose);
+        let view = renderer.render(&camera, (frame.split * 1_000_000 + frame.index) as u64);
+        let [png, exr, depth, normal, albedo] = frame.files();
+        // The PNG last: a frame counts as finished only when all its files exist.
+        write_image(root.join(&exr), &view.colour)?;
+        let grey = WriteOptions { single_channel: true, ..Default::default() };
+        write_image_with(root.join(&depth), &view.depth, grey)?;
+        write_image(root.join(&normal), &view.normal)?;
+        write_image(root.join(&albedo), &view.albedo)?;
+        write_image(root.join(&png), &spec.tone_curve.map_image(&view.colour, spec.exposure))?;
+        progress(done + 1, to_do.len());
+    }
+    let complete = finish_dataset(root, spec)?;
+    Ok(GeneratedDataset { root: root.to_path_buf(), counts: spec.counts, rendered: to_do.len(), skipped, complete })
+}
+
+/// Removes hidden `.*.tmp` files that a killed run left behind (finished files are only ever
+/// renamed into place, so these are the unfinished ones).
+fn remove_stale_temporaries(folder: &Path) {
+    for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if name.starts_with('.') && name.ends_with(".tmp") {
+            let _ = std::fs::remove_file(entry.path());
         }
+    }
+}
+
+/// If every frame of the dataset exists, writes the transforms files and `points3d.ply` and
+/// returns true; otherwise returns false and writes nothing. This is the merge step of a
+/// sharded generation.
+pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError> {
+    let frames = plan(spec);
+    if !frames.iter().all(|f| f.finished(root)) {
+        return Ok(false);
+    }
+    let intrinsics = Intrinsics::from_fov_x(spec.width, spec.height, spec.fov_x);
+    for (split_index, split) in Split::ALL.into_iter().enumerate() {
+        let records: Vec<FrameRecord> = frames
+            .iter()
+            .filter(|f| f.split == split_index)
+            .map(|f| {
+                let [_, exr, depth, normal, albedo] = f.files();
+                FrameRecord {
+                    file_path: format!("./{}", f.stem),
+                    camera_to_world: f.pose,
+                    hdr_file_path: Some(exr),
+                    depth_file_path: Some(depth),
+                    normal_file_path: Some(normal),
+                    albedo_file_path: Some(albedo),
+                    ..Default::default()
+                }
+            })
+            .collect();
         write_transforms(&root.join(split.file_name()), &intrinsics, Some(spec.aabb), &records)?;
     }
-    Ok(GeneratedDataset { root: root.to_path_buf(), counts: spec.counts })
+    let train: Vec<(String, glam::Mat4)> =
+        frames.iter().filter(|f| f.split == 0).map(|f| (f.stem.clone(), f.pose)).collect();
+    crate::point_cloud::write_point_cloud(root, &intrinsics, &train, POINT_CLOUD_SIZE)?;
+    Ok(true)
 }
+
+/// Frames of the dataset that are not finished in `root`.
+pub fn missing_frames(root: &Path, spec: &DatasetSpec) -> usize {
+    plan(spec).iter().filter(|f| !f.finished(root)).count()
+}
+
+/// About how many points `points3d.ply` holds: enough to seed 3D Gaussian splatting, as a
+/// sparse SfM cloud would, without making the file large.
+pub const POINT_CLOUD_SIZE: usize = 20_000;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::AnalyticScene;
     use lucid_scene::Dataset;
+
+    #[test]
+    fn point_cloud_lies_on_the_visible_surfaces() {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = DatasetSpec {
+            width: 96,
+            height: 64,
+            fov_x: 0.8,
+            counts: [3, 0, 1],
+            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 5 },
+            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
+            exposure: 0.0,
+            tone_curve: ToneCurve::Clip,
+        };
+        let scene = AnalyticScene::default();
+        generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
+        let ply = std::fs::File::open(dir.path().join("points3d.ply")).unwrap();
+        let parsed = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new()
+            .read_ply(&mut std::io::BufReader::new(ply))
+            .unwrap();
+        let points = &parsed.payload["vertex"];
+        assert!(points.len() > 2000, "{} points", points.len());
+        let mut distances: Vec<f32> = points
+            .iter()
+            .map(|p| {
+                assert!(["red", "green", "blue", "nx", "ny", "nz"].iter().all(|k| p.contains_key(*k)));
+                let get = |k: &str| p[k].to_f32_lossy().unwrap();
+                let x = Vec3::new(get("x"), get("y"), get("z"));
+                let sphere = scene
+                    .spheres
+                    .iter()
+                    .map(|s| ((x - s.centre).length() - s.radius).abs())
+                    .fold(f32::INFINITY, f32::min);
+                sphere.min((x.z + 0.5).abs())
+            })
+            .collect();
+        distances.sort_by(f32::total_cmp);
+        // Pixels are ~0.03 units wide here; depth is averaged over each pixel's 3x3 samples.
+        let p95 = distances[distances.len() * 95 / 100];
+        assert!(p95 < 0.01, "95% of points within {p95} of a surface");
+        assert!(*distances.last().unwrap() < 0.2, "an outlier {} from every surface", distances.last().unwrap());
+    }
+
+    #[test]
+    fn shards_resume_and_merge_into_the_same_dataset() {
+        let spec = DatasetSpec {
+            width: 12,
+            height: 10,
+            fov_x: 0.8,
+            counts: [3, 2, 2],
+            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 9 },
+            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
+            exposure: 0.0,
+            tone_curve: ToneCurve::Clip,
+        };
+        let scene = AnalyticScene::default();
+        let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        generate_dataset(whole.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
+        let a = generate_dataset(parts.path(), &spec, &scene, Shard { index: 0, count: 2 }, &|_, _| {}).unwrap();
+        assert_eq!((a.rendered, a.complete), (4, false));
+        assert!(!parts.path().join("transforms_train.json").exists(), "no transforms before all frames exist");
+        assert_eq!(missing_frames(parts.path(), &spec), 3);
+        let b = generate_dataset(parts.path(), &spec, &scene, Shard { index: 1, count: 2 }, &|_, _| {}).unwrap();
+        assert_eq!((b.rendered, b.complete), (3, true));
+        // Resuming a finished dataset renders nothing.
+        let again = generate_dataset(parts.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
+        assert_eq!((again.rendered, again.skipped), (0, 7));
+        for entry in ["transforms_train.json", "transforms_test.json", "points3d.ply", "val/r_1.exr", "test/r_0.png"] {
+            let x = std::fs::read(whole.path().join(entry)).unwrap();
+            let y = std::fs::read(parts.path().join(entry)).unwrap();
+            assert!(x == y, "{entry} differs");
+        }
+    }
 
     #[test]
     fn generated_dataset_reads_back_with_matching_images() {
@@ -156,8 +343,8 @@ mod tests {
             tone_curve: ToneCurve::Clip,
         };
         let scene = AnalyticScene::default();
-        let out = generate_dataset(dir.path(), &spec, &scene, &|_, _| {}).unwrap();
-        assert_eq!(out.counts, [3, 1, 2]);
+        let out = generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
+        assert_eq!((out.counts, out.rendered, out.complete), ([3, 1, 2], 6, true));
         let ds = Dataset::open(dir.path()).unwrap();
         assert_eq!(
             [ds.frames(Split::Train).len(), ds.frames(Split::Val).len(), ds.frames(Split::Test).len()],

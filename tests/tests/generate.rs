@@ -77,3 +77,69 @@ fn unknown_scenes_and_bad_flags_are_clear_errors() {
     lucid_in(dir.path(), &["gen", "object", "-o", "x", "--views", "0,1,1"]).failure(&["--views"]);
     assert!(!dir.path().join("x").exists());
 }
+
+fn same_tree(a: &Path, b: &Path) {
+    let files = files_under(a);
+    assert_eq!(files, files_under(b));
+    for f in &files {
+        assert!(std::fs::read(a.join(f)).unwrap() == std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
+}
+
+#[test]
+fn two_shards_and_a_merge_equal_the_unsharded_set() {
+    let dir = temp_dir();
+    generate(dir.path(), "whole", "5");
+    for shard in ["0/2", "1/2"] {
+        let mut args = vec!["gen", "object", "-o", "parts", "--seed", "5", "--shard", shard];
+        args.extend_from_slice(&ARGS);
+        lucid_in(dir.path(), &args).success();
+    }
+    let mut args = vec!["gen", "object", "-o", "parts", "--seed", "5", "--merge"];
+    args.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &args).success();
+    same_tree(&dir.path().join("whole"), &dir.path().join("parts"));
+
+    // Merging an incomplete set is an error; so is reusing a folder with other settings.
+    let mut args = vec!["gen", "object", "-o", "half", "--seed", "5", "--shard", "0/2"];
+    args.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &args).success();
+    let mut args = vec!["gen", "object", "-o", "half", "--seed", "5", "--merge"];
+    args.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &args).failure(&["half", "frames are still missing"]);
+    let mut args = vec!["gen", "object", "-o", "half", "--seed", "6"];
+    args.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &args).failure(&["dataset.toml", "other settings"]);
+}
+
+#[test]
+fn a_killed_generation_resumes_to_the_same_dataset() {
+    let dir = temp_dir();
+    let args = ["gen", "object", "-o", "OUT", "--views", "12,0,0", "--res", "96", "--spp", "32", "--seed", "3"];
+    fn with_out<'a>(args: &[&'a str], out: &'a str) -> Vec<&'a str> {
+        args.iter().map(|a| if *a == "OUT" { out } else { *a }).collect()
+    }
+    let mut child = std::process::Command::new(lucid_tests::lucid_bin())
+        .args(with_out(&args, "killed"))
+        .current_dir(dir.path())
+        .env("LUCID_LOG", "warn")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let marker = dir.path().join("killed/train/r_1.png");
+    let started = std::time::Instant::now();
+    while !marker.exists() && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        !dir.path().join("killed/transforms_train.json").exists(),
+        "the run finished before it could be killed; the test needs a longer job"
+    );
+    let resumed = lucid_in(dir.path(), &with_out(&args, "killed")).success();
+    assert!(resumed.stdout.contains("already there"), "{}", resumed.stdout);
+    lucid_in(dir.path(), &with_out(&args, "clean")).success();
+    same_tree(&dir.path().join("clean"), &dir.path().join("killed"));
+}

@@ -81,6 +81,25 @@ pub struct GenArgs {
     /// Cameras on the whole sphere instead of the upper hemisphere.
     #[arg(long)]
     pub full_sphere: bool,
+    /// Render only shard I of N (every N-th frame starting at I), e.g. `--shard 0/4`, so that
+    /// N machines split one dataset; run with `--merge` (or once more unsharded) at the end.
+    #[arg(long, value_parser = parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Render nothing: check that every frame exists and write the transforms files and
+    /// `points3d.ply` (the last step of a sharded generation).
+    #[arg(long, conflicts_with = "shard")]
+    pub merge: bool,
+}
+
+/// Parses `I/N` with `I < N`.
+fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let (i, n) = text.split_once('/').ok_or_else(|| format!("expected I/N, got {text:?}"))?;
+    let i: usize = i.trim().parse().map_err(|_| format!("{i:?} is not a shard index"))?;
+    let n: usize = n.trim().parse().map_err(|_| format!("{n:?} is not a shard count"))?;
+    if n == 0 || i >= n {
+        return Err(format!("shard {i}/{n} does not exist (need 0 <= I < N)"));
+    }
+    Ok((i, n))
 }
 
 /// What to benchmark.

@@ -221,3 +221,17 @@ fn unknown_output_extension_is_rejected_before_writing() {
     assert!(matches!(err, ImageError::UnsupportedFormat { .. }));
     assert!(!path.exists());
 }
+
+#[test]
+fn the_same_image_always_gives_the_same_bytes() {
+    // Parallel EXR compression must not reorder blocks: datasets are compared byte for byte.
+    let dir = tempfile::tempdir().unwrap();
+    let img = hdr_test_image(300, 200);
+    for name in ["a.exr", "b.exr", "c.exr"] {
+        write_image(dir.path().join(name), &img).unwrap();
+    }
+    let a = std::fs::read(dir.path().join("a.exr")).unwrap();
+    for name in ["b.exr", "c.exr"] {
+        assert!(a == std::fs::read(dir.path().join(name)).unwrap(), "{name} differs from a.exr");
+    }
+}

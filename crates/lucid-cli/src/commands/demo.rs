@@ -8,7 +8,7 @@ use std::io::Write;
 use anyhow::{Context, bail};
 use glam::{Vec3, Vec4Swizzles};
 use lucid_datasets_gen::writer::DatasetSpec;
-use lucid_datasets_gen::{OrbitRig, PathTracedScene, generate_dataset};
+use lucid_datasets_gen::{OrbitRig, PathTracedScene, Shard, generate_dataset};
 use lucid_image::metrics::{MetricSpace, MetricSummary};
 use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
@@ -49,7 +49,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     tracing::info!("path-tracing {} views of the object scene into {}", train + val + test, root.display());
     let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     let bar = crate::progress::bar((train + val + test) as u64, "rendering");
-    generate_dataset(&root, &spec, &renderer, &|done, _| bar.set_position(done as u64))
+    generate_dataset(&root, &spec, &renderer, Shard::ALL, &|done, _| bar.set_position(done as u64))
         .context("generating the demo dataset")?;
     bar.finish_and_clear();
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_datasets_gen::writer::DatasetSpec;
-use lucid_datasets_gen::{OrbitRig, PathTracedScene, generate_dataset};
+use lucid_datasets_gen::{OrbitRig, PathTracedScene, Shard, finish_dataset, generate_dataset, missing_frames};
 use lucid_image::tonemap::ToneCurve;
 use lucid_trace::{LoadedScene, load_scene, parse_scene};
 use serde::Serialize;
@@ -106,9 +106,39 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         max_depth: loaded.settings.integrator.max_depth,
         seed: loaded.settings.seed,
     };
-    let total: usize = args.views.iter().sum();
+    // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
+    // folder cannot mix frames made with different ones.
+    let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
+    let path = args.output.join("dataset.toml");
+    match std::fs::read_to_string(&path) {
+        Ok(existing) if existing != toml_text => bail!(
+            "{}: this folder holds a dataset made with other settings; use another folder (or delete it)",
+            path.display()
+        ),
+        Ok(_) => {}
+        Err(_) => {
+            std::fs::create_dir_all(&args.output)
+                .with_context(|| format!("{}: cannot create", args.output.display()))?;
+            lucid_image::write_atomically(&path, |out| {
+                out.write_all(toml_text.as_bytes())
+                    .map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
+            })?;
+        }
+    }
+    if args.merge {
+        if !finish_dataset(&args.output, &spec)? {
+            bail!(
+                "{}: {} frames are still missing; run the remaining shards first",
+                args.output.display(),
+                missing_frames(&args.output, &spec)
+            );
+        }
+        println!("merged {}: transforms files and points3d.ply written", args.output.display());
+        return Ok(());
+    }
+    let shard = args.shard.map_or(Shard::ALL, |(index, count)| Shard { index, count });
     tracing::info!(
-        "rendering {total} views of {} ({}x{}, {} spp) into {}",
+        "rendering {} ({}x{}, {} spp) into {}",
         args.scene,
         args.res,
         args.res,
@@ -116,26 +146,26 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         args.output.display()
     );
     let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
-    let bar = crate::progress::bar(total as u64, "rendering");
+    let bar = crate::progress::bar(0, "rendering");
     let started = std::time::Instant::now();
-    generate_dataset(&args.output, &spec, &renderer, &|done, _| bar.set_position(done as u64))
-        .with_context(|| format!("generating {}", args.output.display()))?;
+    let out = generate_dataset(&args.output, &spec, &renderer, shard, &|done, to_do| {
+        bar.set_length(to_do as u64);
+        bar.set_position(done as u64)
+    })
+    .with_context(|| format!("generating {}", args.output.display()))?;
     bar.finish_and_clear();
-    let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
-    let path = args.output.join("dataset.toml");
-    lucid_image::write_atomically(&path, |out| {
-        out.write_all(toml_text.as_bytes()).map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
-    })?;
     println!(
-        "wrote {total} views ({}/{}/{}) of {} at {}x{} to {} in {:.1} s",
-        args.views[0],
-        args.views[1],
-        args.views[2],
+        "{}: rendered {} views, {} already there ({} at {}x{}, shard {}/{}) in {:.1} s; {}",
+        args.output.display(),
+        out.rendered,
+        out.skipped,
         args.scene,
         args.res,
         args.res,
-        args.output.display(),
-        started.elapsed().as_secs_f64()
+        shard.index,
+        shard.count,
+        started.elapsed().as_secs_f64(),
+        if out.complete { "dataset complete" } else { "other shards still to run" }
     );
     Ok(())
 }

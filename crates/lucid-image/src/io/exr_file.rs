@@ -94,7 +94,10 @@ pub(super) fn write(
             list.push(AnyChannel::new("A", channel(3)));
         }
     }
-    let encoding = Encoding { compression: Compression::ZIP16, ..Encoding::default() };
+    // Blocks in increasing order: parallel compression otherwise writes them in completion
+    // order, and the same image would not give the same bytes (datasets must be reproducible).
+    let encoding =
+        Encoding { compression: Compression::ZIP16, line_order: LineOrder::Increasing, ..Encoding::default() };
     let exr_image = Image::from_encoded_channels(size, encoding, AnyChannels::sort(list));
     exr_image.write().to_buffered(out).map_err(|e| match e {
         exr::error::Error::Io(io) => ImageError::io(path, io),
