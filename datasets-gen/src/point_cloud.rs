@@ -48,7 +48,7 @@ pub fn write_point_cloud(
                     continue;
                 }
                 counter += 1;
-                if counter % stride != 0 {
+                if !counter.is_multiple_of(stride) {
                     continue;
                 }
                 // Camera directions have z = −1, so scaling by the z-depth gives the point.
