@@ -7,6 +7,7 @@
 //! images make quick fixtures.
 
 pub mod analytic;
+pub mod brackets;
 pub mod path_traced;
 pub mod point_cloud;
 pub mod rig;

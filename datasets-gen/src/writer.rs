@@ -11,7 +11,9 @@ use lucid_image::{Image, WriteOptions, write_image, write_image_with};
 use lucid_scene::dataset::{FrameRecord, write_transforms};
 use lucid_scene::{Intrinsics, PinholeCamera, Split};
 
+use crate::brackets::{BracketSpec, expose};
 use crate::rig::OrbitRig;
+use lucid_image::color::srgb_decode;
 
 /// The images a renderer produces for one view. All are linear; `colour` has straight
 /// alpha (0 where the background shows), the others carry the same alpha.
@@ -54,6 +56,9 @@ pub struct DatasetSpec {
     pub exposure: f32,
     /// Tone curve for the LDR images.
     pub tone_curve: ToneCurve,
+    /// Exposure brackets: when set, each view also gets LDR frames at several exposure times
+    /// and the transforms list one frame per (view, exposure) with its `exposure_time`.
+    pub brackets: Option<BracketSpec>,
 }
 
 /// Why generation failed.
@@ -133,8 +138,20 @@ impl PlannedFrame {
         ]
     }
 
-    fn finished(&self, root: &Path) -> bool {
+    /// The bracket frames' stems (no extension), one per exposure.
+    fn bracket_stems(&self, spec: &DatasetSpec) -> Vec<String> {
+        let n = spec.brackets.as_ref().map_or(0, |b| b.exposure_times.len());
+        (0..n).map(|k| format!("{}_e{k}", self.stem)).collect()
+    }
+
+    fn finished(&self, root: &Path, spec: &DatasetSpec) -> bool {
         self.files().iter().all(|f| root.join(f).is_file())
+            && self.bracket_stems(spec).iter().all(|s| root.join(format!("{s}.png")).is_file())
+    }
+
+    /// Seed of this frame's sensor noise for bracket `k`.
+    fn noise_seed(&self, spec: &DatasetSpec, k: usize) -> u64 {
+        lucid_trace::sampling::mix(spec.rig.seed ^ ((self.split as u64) << 48) ^ ((self.index as u64) << 16) ^ k as u64)
     }
 }
 
@@ -177,7 +194,7 @@ pub fn generate_dataset(
         remove_stale_temporaries(&folder);
     }
     let mine: Vec<&PlannedFrame> = frames.iter().enumerate().filter(|(g, _)| shard.owns(*g)).map(|(_, f)| f).collect();
-    let to_do: Vec<&&PlannedFrame> = mine.iter().filter(|f| !f.finished(root)).collect();
+    let to_do: Vec<&&PlannedFrame> = mine.iter().filter(|f| !f.finished(root, spec)).collect();
     let skipped = mine.len() - to_do.len();
     for (done, frame) in to_do.iter().enumerate() {
         let camera = PinholeCamera::new(intrinsics, frame.pose);
@@ -190,6 +207,15 @@ pub fn generate_dataset(
         write_image(root.join(&normal), &view.normal)?;
         write_image(root.join(&albedo), &view.albedo)?;
         write_image(root.join(&png), &spec.tone_curve.map_image(&view.colour, spec.exposure))?;
+        if let Some(b) = &spec.brackets {
+            for (k, (stem, &time)) in frame.bracket_stems(spec).iter().zip(&b.exposure_times).enumerate() {
+                let ldr = expose(&view.colour, time, b.response, b.noise, frame.noise_seed(spec, k));
+                // The PNG writer sRGB-encodes linear values: hand it the decoded pixel values
+                // so that the file stores exactly the camera's 8-bit codes.
+                let stored = ldr.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), p[3]]);
+                write_image(root.join(format!("{stem}.png")), &stored)?;
+            }
+        }
         progress(done + 1, to_do.len());
     }
     let complete = finish_dataset(root, spec)?;
@@ -212,27 +238,36 @@ fn remove_stale_temporaries(folder: &Path) {
 /// sharded generation.
 pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError> {
     let frames = plan(spec);
-    if !frames.iter().all(|f| f.finished(root)) {
+    if !frames.iter().all(|f| f.finished(root, spec)) {
         return Ok(false);
     }
     let intrinsics = Intrinsics::from_fov_x(spec.width, spec.height, spec.fov_x);
     for (split_index, split) in Split::ALL.into_iter().enumerate() {
-        let records: Vec<FrameRecord> = frames
-            .iter()
-            .filter(|f| f.split == split_index)
-            .map(|f| {
-                let [_, exr, depth, normal, albedo] = f.files();
-                FrameRecord {
-                    file_path: format!("./{}", f.stem),
-                    camera_to_world: f.pose,
-                    hdr_file_path: Some(exr),
-                    depth_file_path: Some(depth),
-                    normal_file_path: Some(normal),
-                    albedo_file_path: Some(albedo),
-                    ..Default::default()
+        let mut records: Vec<FrameRecord> = Vec::new();
+        for f in frames.iter().filter(|f| f.split == split_index) {
+            let [_, exr, depth, normal, albedo] = f.files();
+            let base = FrameRecord {
+                file_path: format!("./{}", f.stem),
+                camera_to_world: f.pose,
+                hdr_file_path: Some(exr),
+                depth_file_path: Some(depth),
+                normal_file_path: Some(normal),
+                albedo_file_path: Some(albedo),
+                ..Default::default()
+            };
+            match &spec.brackets {
+                None => records.push(base),
+                Some(b) => {
+                    for (stem, &time) in f.bracket_stems(spec).iter().zip(&b.exposure_times) {
+                        records.push(FrameRecord {
+                            file_path: format!("./{stem}"),
+                            exposure_time: Some(time),
+                            ..base.clone()
+                        });
+                    }
                 }
-            })
-            .collect();
+            }
+        }
         write_transforms(&root.join(split.file_name()), &intrinsics, Some(spec.aabb), &records)?;
     }
     let train: Vec<(String, glam::Mat4)> =
@@ -243,7 +278,7 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
 
 /// Frames of the dataset that are not finished in `root`.
 pub fn missing_frames(root: &Path, spec: &DatasetSpec) -> usize {
-    plan(spec).iter().filter(|f| !f.finished(root)).count()
+    plan(spec).iter().filter(|f| !f.finished(root, spec)).count()
 }
 
 /// About how many points `points3d.ply` holds: enough to seed 3D Gaussian splatting, as a
@@ -257,6 +292,48 @@ mod tests {
     use lucid_scene::Dataset;
 
     #[test]
+    fn bracket_datasets_list_each_exposure_and_recover_the_hdr() {
+        use crate::brackets::{BracketSpec, CameraResponse, SensorNoise};
+        let dir = tempfile::tempdir().unwrap();
+        let response = CameraResponse::SCurve { contrast: 1.4 };
+        let times = vec![0.25f32, 1.0, 4.0];
+        let spec = DatasetSpec {
+            width: 32,
+            height: 24,
+            fov_x: 0.8,
+            counts: [2, 0, 1],
+            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 2 },
+            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
+            exposure: 0.0,
+            tone_curve: ToneCurve::Clip,
+            brackets: Some(BracketSpec { exposure_times: times.clone(), response, noise: SensorNoise::NONE }),
+        };
+        generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
+        let ds = lucid_scene::Dataset::open(dir.path()).unwrap();
+        let train = ds.frames(Split::Train);
+        assert_eq!(train.len(), 6, "2 views x 3 exposures");
+        let mut checked = 0;
+        for (k, frame) in train.iter().take(3).enumerate() {
+            assert_eq!(frame.extras.exposure_time, Some(times[k]));
+            assert!(frame.image_path.to_string_lossy().ends_with(&format!("r_0_e{k}.png")));
+            let hdr = lucid_image::read_image(frame.extras.hdr_path.as_ref().unwrap()).unwrap();
+            let ldr = lucid_image::read_image(&frame.image_path).unwrap();
+            for (h, l) in hdr.pixels().iter().zip(ldr.pixels()) {
+                for c in 0..3 {
+                    let code = lucid_image::color::srgb_encode(l[c]);
+                    if code > 0.1 && code < 0.95 {
+                        let estimate = response.invert(code) / times[k];
+                        let bound = crate::brackets::half_code_error(response, code) / times[k];
+                        assert!((estimate - h[c]).abs() <= bound * 1.01 + 1e-4, "{estimate} vs {}", h[c]);
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 200, "{checked}");
+    }
+
+    #[test]
     fn point_cloud_lies_on_the_visible_surfaces() {
         let dir = tempfile::tempdir().unwrap();
         let spec = DatasetSpec {
@@ -268,6 +345,7 @@ mod tests {
             aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
             exposure: 0.0,
             tone_curve: ToneCurve::Clip,
+            brackets: None,
         };
         let scene = AnalyticScene::default();
         generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
@@ -309,6 +387,7 @@ mod tests {
             aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
             exposure: 0.0,
             tone_curve: ToneCurve::Clip,
+            brackets: None,
         };
         let scene = AnalyticScene::default();
         let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
@@ -341,6 +420,7 @@ mod tests {
             aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
             exposure: 0.0,
             tone_curve: ToneCurve::Clip,
+            brackets: None,
         };
         let scene = AnalyticScene::default();
         let out = generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();

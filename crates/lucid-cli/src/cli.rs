@@ -47,6 +47,18 @@ pub enum Command {
 pub enum RigArg {
     /// Cameras on the upper hemisphere (or sphere) around the origin, looking at it.
     Orbit,
+    /// Orbit cameras, each view also recorded as LDR frames at several exposure times
+    /// through a camera response curve with sensor noise (HDR truth kept beside them).
+    Brackets,
+}
+
+/// Camera response curves of the brackets rig.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ResponseArg {
+    /// The sRGB transfer function.
+    Srgb,
+    /// A film-like S-curve.
+    Scurve,
 }
 
 /// `lucid gen`.
@@ -89,6 +101,18 @@ pub struct GenArgs {
     /// `points3d.ply` (the last step of a sharded generation).
     #[arg(long, conflicts_with = "shard")]
     pub merge: bool,
+    /// Brackets rig: exposures in stops relative to 1 s, e.g. `-2,0,2`.
+    #[arg(long, value_delimiter = ',', default_value = "-2,0,2", allow_negative_numbers = true)]
+    pub exposures: Vec<f32>,
+    /// Brackets rig: the camera response curve.
+    #[arg(long, value_enum, default_value_t = ResponseArg::Srgb)]
+    pub response: ResponseArg,
+    /// Brackets rig: electrons at full well (shot noise); 0 disables sensor noise.
+    #[arg(long, default_value_t = 4000.0)]
+    pub full_well: f32,
+    /// Brackets rig: read noise, standard deviation in full-well units.
+    #[arg(long, default_value_t = 0.002)]
+    pub read_noise: f32,
 }
 
 /// Parses `I/N` with `I < N`.

@@ -42,6 +42,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
         exposure: 0.0,
         tone_curve: ToneCurve::Aces,
+        brackets: None,
     };
     let mut loaded = super::generate::load_named_scene("object")?;
     loaded.settings.spp = args.spp;

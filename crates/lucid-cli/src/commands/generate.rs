@@ -12,7 +12,8 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_trace::{LoadedScene, load_scene, parse_scene};
 use serde::Serialize;
 
-use crate::cli::{GenArgs, RigArg};
+use crate::cli::{GenArgs, ResponseArg, RigArg};
+use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
 
 /// The scenes of `configs/scenes/`, compiled in so `lucid gen NAME` works anywhere.
 const BUILTIN_SCENES: [(&str, &str); 5] = [
@@ -50,6 +51,10 @@ struct DatasetRecord<'a> {
     spp: u32,
     max_depth: u32,
     seed: u64,
+    exposure_times: Option<Vec<f32>>,
+    response: Option<&'a str>,
+    full_well: Option<f32>,
+    read_noise: Option<f32>,
 }
 
 pub fn run(args: GenArgs) -> anyhow::Result<()> {
@@ -77,6 +82,31 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
     }
     let rig_name = match args.rig {
         RigArg::Orbit => "orbit",
+        RigArg::Brackets => "brackets",
+    };
+    let brackets = match args.rig {
+        RigArg::Orbit => None,
+        RigArg::Brackets => {
+            if args.exposures.is_empty() || args.exposures.iter().any(|s| !s.is_finite() || s.abs() > 30.0) {
+                bail!("--exposures must list finite stops within ±30");
+            }
+            if !(args.full_well.is_finite() && args.full_well >= 0.0)
+                || !(args.read_noise.is_finite() && args.read_noise >= 0.0)
+            {
+                bail!("--full-well and --read-noise must be non-negative numbers");
+            }
+            Some(BracketSpec {
+                exposure_times: args.exposures.iter().map(|s| s.exp2()).collect(),
+                response: match args.response {
+                    ResponseArg::Srgb => CameraResponse::Srgb,
+                    ResponseArg::Scurve => CameraResponse::SCurve { contrast: 1.6 },
+                },
+                noise: SensorNoise {
+                    full_well_electrons: if args.full_well > 0.0 { args.full_well } else { f32::INFINITY },
+                    read_noise: if args.full_well > 0.0 { args.read_noise } else { 0.0 },
+                },
+            })
+        }
     };
     let spec = DatasetSpec {
         width: args.res,
@@ -92,6 +122,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         aabb: (Vec3::splat(-1.5), Vec3::splat(1.5)),
         exposure: 0.0,
         tone_curve: ToneCurve::Clip,
+        brackets: brackets.clone(),
     };
     let record = DatasetRecord {
         generator: format!("lucid {}", env!("CARGO_PKG_VERSION")),
@@ -105,6 +136,13 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         spp: loaded.settings.spp,
         max_depth: loaded.settings.integrator.max_depth,
         seed: loaded.settings.seed,
+        exposure_times: brackets.as_ref().map(|b| b.exposure_times.clone()),
+        response: brackets.as_ref().map(|_| match args.response {
+            ResponseArg::Srgb => "srgb",
+            ResponseArg::Scurve => "scurve",
+        }),
+        full_well: brackets.as_ref().map(|_| args.full_well),
+        read_noise: brackets.as_ref().map(|_| args.read_noise),
     };
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
     // folder cannot mix frames made with different ones.
