@@ -80,7 +80,7 @@ pub struct BracketSpec {
 /// The 8-bit pixel values (in `[0,1]`, as stored in the file) of `hdr` exposed for `time`
 /// seconds. `seed` makes the noise reproducible.
 pub fn expose(hdr: &Image, time: f32, response: CameraResponse, noise: SensorNoise, seed: u64) -> Image {
-    let mut rng = lucid_trace::sampling::Rng::new(seed, 0x5e15_0e);
+    let mut rng = lucid_trace::sampling::Rng::new(seed, 0x005e_150e);
     let mut gaussian = move || {
         // Box–Muller.
         let (u1, u2) = (1.0 - rng.uniform(), rng.uniform());
