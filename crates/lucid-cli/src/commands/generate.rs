@@ -90,9 +90,8 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
             if args.exposures.is_empty() || args.exposures.iter().any(|s| !s.is_finite() || s.abs() > 30.0) {
                 bail!("--exposures must list finite stops within ±30");
             }
-            if !(args.full_well.is_finite() && args.full_well >= 0.0)
-                || !(args.read_noise.is_finite() && args.read_noise >= 0.0)
-            {
+            let non_negative = |v: f32| v.is_finite() && v >= 0.0;
+            if !(non_negative(args.full_well) && non_negative(args.read_noise)) {
                 bail!("--full-well and --read-noise must be non-negative numbers");
             }
             Some(BracketSpec {
