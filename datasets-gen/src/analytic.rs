@@ -6,10 +6,10 @@
 
 use glam::{Vec2, Vec3};
 use lucid_image::Image;
-use lucid_scene::{Camera, PinholeCamera, Ray};
+use lucid_scene::{Camera, PinholeCamera, Ray, ThinLensCamera};
 use rayon::prelude::*;
 
-use crate::writer::{RenderedView, ViewRenderer};
+use crate::writer::{Lens, RenderedView, ViewRenderer};
 
 /// A sphere with a constant albedo.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,11 +135,15 @@ impl AnalyticScene {
 }
 
 impl ViewRenderer for AnalyticScene {
-    fn render(&self, camera: &PinholeCamera, _view: u64) -> RenderedView {
+    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, _view: u64) -> RenderedView {
         let k = camera.intrinsics;
         let (w, h) = (k.width as usize, k.height as usize);
         let n = self.samples_per_axis.max(1);
-        let inv = 1.0 / (n * n) as f32;
+        // A thin lens needs the aperture integrated too: a stratified 8x8 grid of lens points
+        // per pixel sample.
+        let lens_n: u32 = if lens.is_some() { 8 } else { 1 };
+        let thin_lens = lens.map(|l| ThinLensCamera::new(*camera, l.aperture_radius, l.focus_distance));
+        let inv = 1.0 / (n * n * lens_n * lens_n) as f32;
         let view_axis = camera.forward();
         let rows: Vec<Vec<[[f32; 4]; 4]>> = (0..h)
             .into_par_iter()
@@ -148,10 +152,19 @@ impl ViewRenderer for AnalyticScene {
                     .map(|i| {
                         let (mut colour, mut normal, mut albedo) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
                         let (mut depth, mut coverage) = (0.0f32, 0.0f32);
-                        for sy in 0..n {
-                            for sx in 0..n {
-                                let jitter = Vec2::new((sx as f32 + 0.5) / n as f32, (sy as f32 + 0.5) / n as f32);
-                                let ray = camera.jittered_ray(i as u32, j as u32, jitter, Vec2::ZERO);
+                        for s in 0..n * n * lens_n * lens_n {
+                            let (pixel, lens_index) = (s / (lens_n * lens_n), s % (lens_n * lens_n));
+                            let (sx, sy) = (pixel % n, pixel / n);
+                            let jitter = Vec2::new((sx as f32 + 0.5) / n as f32, (sy as f32 + 0.5) / n as f32);
+                            let lens_uv = Vec2::new(
+                                ((lens_index % lens_n) as f32 + 0.5) / lens_n as f32,
+                                ((lens_index / lens_n) as f32 + 0.5) / lens_n as f32,
+                            );
+                            let ray = match &thin_lens {
+                                Some(t) => t.jittered_ray(i as u32, j as u32, jitter, lens_uv),
+                                None => camera.jittered_ray(i as u32, j as u32, jitter, Vec2::ZERO),
+                            };
+                            {
                                 if let Some(hit) = self.intersect(&ray) {
                                     colour += self.shade(&hit);
                                     normal += hit.normal;
@@ -195,7 +208,7 @@ mod tests {
         let scene = AnalyticScene::default();
         let pose = look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y);
         let cam = PinholeCamera::new(Intrinsics::from_fov_x(33, 33, 0.5), pose);
-        let view = scene.render(&cam, 0);
+        let view = scene.render(&cam, None, 0);
         let d = view.depth.get(16, 16);
         assert!((d[0] - 2.5).abs() < 1e-3, "{d:?}");
         let n = view.normal.get(16, 16);
@@ -214,7 +227,7 @@ mod tests {
     fn background_is_transparent() {
         let scene = AnalyticScene::default();
         let pose = Mat4::from_translation(Vec3::new(0.0, 10.0, 0.0)); // looks down −Z, misses everything
-        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose), 0);
+        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose), None, 0);
         assert!(view.colour.pixels().iter().all(|p| p[3] == 0.0));
     }
 }

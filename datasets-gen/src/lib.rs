@@ -8,12 +8,14 @@
 
 pub mod analytic;
 pub mod brackets;
+pub mod lightfield;
 pub mod path_traced;
 pub mod point_cloud;
 pub mod rig;
 pub mod writer;
 
 pub use analytic::AnalyticScene;
+pub use lightfield::{LightFieldRig, refocus};
 pub use path_traced::PathTracedScene;
 pub use rig::OrbitRig;
 pub use writer::{

@@ -1,9 +1,9 @@
 //! Views rendered by the path tracer, for datasets of scene files.
 
-use lucid_scene::PinholeCamera;
+use lucid_scene::{PinholeCamera, ThinLensCamera};
 use lucid_trace::{RenderCamera, RenderSettings, Scene, render};
 
-use crate::writer::{RenderedView, ViewRenderer};
+use crate::writer::{Lens, RenderedView, ViewRenderer};
 
 /// A scene and its render settings; each view gets its own seed derived from the base seed.
 pub struct PathTracedScene {
@@ -14,10 +14,14 @@ pub struct PathTracedScene {
 }
 
 impl ViewRenderer for PathTracedScene {
-    fn render(&self, camera: &PinholeCamera, view: u64) -> RenderedView {
+    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> RenderedView {
         let seed = lucid_trace::sampling::mix(self.settings.seed ^ view.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let settings = RenderSettings { seed, ..self.settings };
-        let out = render(&self.scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {});
+        let camera = match lens {
+            None => RenderCamera::Pinhole(*camera),
+            Some(l) => RenderCamera::ThinLens(ThinLensCamera::new(*camera, l.aperture_radius, l.focus_distance)),
+        };
+        let out = render(&self.scene, &camera, &settings, &|_| {});
         RenderedView { colour: out.colour, depth: out.depth, normal: out.normal, albedo: out.albedo }
     }
 }

@@ -143,3 +143,42 @@ fn a_killed_generation_resumes_to_the_same_dataset() {
     lucid_in(dir.path(), &with_out(&args, "clean")).success();
     same_tree(&dir.path().join("clean"), &dir.path().join("killed"));
 }
+
+#[test]
+fn light_field_refocus_is_closer_to_the_thin_lens_truth_than_the_centre_view() {
+    let dir = temp_dir();
+    let generate_args = [
+        "gen",
+        "object",
+        "--rig",
+        "lightfield",
+        "-o",
+        "lf",
+        "--res",
+        "48",
+        "--spp",
+        "8",
+        "--grid",
+        "7,7",
+        "--spacing",
+        "0.12",
+        "--focus",
+        "4.0",
+        "--apertures",
+        "0.36",
+    ];
+    lucid_in(dir.path(), &generate_args).success();
+    let info = lucid_in(dir.path(), &["info", "lf", "--json"]).success().json();
+    assert_eq!(info["splits"][0]["frames"], 49);
+    assert_eq!(info["splits"][2]["extras"]["thin_lens"], 1);
+    lucid_in(dir.path(), &["refocus", "lf", "--focus", "4.0", "--aperture", "0.36", "-o", "refocused.exr"]).success();
+    let metrics = |a: &str| {
+        lucid_in(dir.path(), &["metrics", a, "lf/test/r_0.exr", "--background", "black", "--json"]).success().json()["mean"]["psnr"]
+            .as_f64()
+            .unwrap()
+    };
+    let (refocused, centre) = (metrics("refocused.exr"), metrics("lf/train/r_24.exr"));
+    assert!(refocused > centre + 2.0, "refocused {refocused:.2} dB vs centre view {centre:.2} dB");
+    lucid_in(dir.path(), &["refocus", "lf", "--focus", "-1", "--aperture", "0.3", "-o", "bad.exr"]).failure(&["focus"]);
+    assert!(!dir.path().join("bad.exr").exists());
+}

@@ -37,6 +37,8 @@ pub enum Command {
     Render(RenderArgs),
     /// Benchmarks with fixed seeds: `trace` renders the reference Cornell box.
     Bench(BenchArgs),
+    /// Refocus a light field by shift-and-add at a focus distance and aperture.
+    Refocus(RefocusArgs),
     /// Generate a dataset: render a scene (a built-in name or a .toml file) from a camera rig
     /// into the NeRF-synthetic layout.
     Gen(GenArgs),
@@ -50,6 +52,9 @@ pub enum RigArg {
     /// Orbit cameras, each view also recorded as LDR frames at several exposure times
     /// through a camera response curve with sensor noise (HDR truth kept beside them).
     Brackets,
+    /// A U×V grid of parallel cameras (sub-aperture views, the training split) and thin-lens
+    /// ground truths from its centre (the test split), for refocusing.
+    Lightfield,
 }
 
 /// Camera response curves of the brackets rig.
@@ -113,6 +118,34 @@ pub struct GenArgs {
     /// Brackets rig: read noise, standard deviation in full-well units.
     #[arg(long, default_value_t = 0.002)]
     pub read_noise: f32,
+    /// Light-field rig: cameras along U and V, as U,V.
+    #[arg(long, value_delimiter = ',', num_args = 1, default_value = "9,9")]
+    pub grid: Vec<usize>,
+    /// Light-field rig: distance between neighbouring cameras.
+    #[arg(long, default_value_t = 0.1)]
+    pub spacing: f32,
+    /// Light-field rig: focus distances of the thin-lens ground truths.
+    #[arg(long, value_delimiter = ',', default_value = "3.5,4.5")]
+    pub focus: Vec<f32>,
+    /// Light-field rig: aperture radii of the thin-lens ground truths.
+    #[arg(long, value_delimiter = ',', default_value = "0.2,0.4")]
+    pub apertures: Vec<f32>,
+}
+
+/// `lucid refocus`.
+#[derive(Debug, Args)]
+pub struct RefocusArgs {
+    /// A light-field dataset (`lucid gen --rig lightfield`, or any set of parallel cameras).
+    pub dataset: PathBuf,
+    /// Distance of the plane in focus along the optical axis.
+    #[arg(long, allow_negative_numbers = true)]
+    pub focus: f32,
+    /// Radius of the synthetic aperture (cameras within it are averaged).
+    #[arg(long, allow_negative_numbers = true)]
+    pub aperture: f32,
+    /// Output image (.exr keeps HDR; .png is clipped and sRGB-encoded).
+    #[arg(short, long)]
+    pub output: PathBuf,
 }
 
 /// Parses `I/N` with `I < N`.

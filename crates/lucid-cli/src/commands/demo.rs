@@ -43,6 +43,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         exposure: 0.0,
         tone_curve: ToneCurve::Aces,
         brackets: None,
+        light_field: None,
     };
     let mut loaded = super::generate::load_named_scene("object")?;
     loaded.settings.spp = args.spp;

@@ -7,7 +7,9 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_datasets_gen::writer::DatasetSpec;
-use lucid_datasets_gen::{OrbitRig, PathTracedScene, Shard, finish_dataset, generate_dataset, missing_frames};
+use lucid_datasets_gen::{
+    LightFieldRig, OrbitRig, PathTracedScene, Shard, finish_dataset, generate_dataset, missing_frames,
+};
 use lucid_image::tonemap::ToneCurve;
 use lucid_trace::{LoadedScene, load_scene, parse_scene};
 use serde::Serialize;
@@ -55,6 +57,9 @@ struct DatasetRecord<'a> {
     response: Option<&'a str>,
     full_well: Option<f32>,
     read_noise: Option<f32>,
+    grid: Option<Vec<usize>>,
+    spacing: Option<f32>,
+    ground_truth: Option<Vec<(f32, f32)>>,
 }
 
 pub fn run(args: GenArgs) -> anyhow::Result<()> {
@@ -83,6 +88,34 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
     let rig_name = match args.rig {
         RigArg::Orbit => "orbit",
         RigArg::Brackets => "brackets",
+        RigArg::Lightfield => "lightfield",
+    };
+    let light_field = match args.rig {
+        RigArg::Lightfield => {
+            let [u, v] = args.grid[..] else { bail!("--grid takes two counts, U,V") };
+            if u == 0 || v == 0 || u * v > 10_000 {
+                bail!("--grid {u},{v} must have 1..=10000 cameras");
+            }
+            if !(args.spacing.is_finite() && args.spacing > 0.0) {
+                bail!("--spacing must be positive");
+            }
+            if args.focus.iter().chain(&args.apertures).any(|x| !x.is_finite() || *x < 0.0) || args.focus.contains(&0.0)
+            {
+                bail!("--focus must be positive and --apertures non-negative");
+            }
+            let ground_truth = args.focus.iter().flat_map(|&f| args.apertures.iter().map(move |&a| (f, a))).collect();
+            // The grid faces the origin from the front, slightly above, at the orbit radius.
+            let centre = Vec3::new(0.0, -1.0, 0.35).normalize() * args.radius;
+            Some(LightFieldRig {
+                centre,
+                target: Vec3::ZERO,
+                up: Vec3::Z,
+                grid: [u, v],
+                spacing: args.spacing,
+                ground_truth,
+            })
+        }
+        _ => None,
     };
     let brackets = match args.rig {
         RigArg::Orbit => None,
@@ -106,6 +139,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
                 },
             })
         }
+        RigArg::Lightfield => None,
     };
     let spec = DatasetSpec {
         width: args.res,
@@ -122,6 +156,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         exposure: 0.0,
         tone_curve: ToneCurve::Clip,
         brackets: brackets.clone(),
+        light_field: light_field.clone(),
     };
     let record = DatasetRecord {
         generator: format!("lucid {}", env!("CARGO_PKG_VERSION")),
@@ -142,6 +177,9 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         }),
         full_well: brackets.as_ref().map(|_| args.full_well),
         read_noise: brackets.as_ref().map(|_| args.read_noise),
+        grid: light_field.as_ref().map(|l| l.grid.to_vec()),
+        spacing: light_field.as_ref().map(|l| l.spacing),
+        ground_truth: light_field.as_ref().map(|l| l.ground_truth.clone()),
     };
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
     // folder cannot mix frames made with different ones.

@@ -6,6 +6,7 @@ mod demo;
 pub mod generate;
 mod info;
 mod metrics;
+mod refocus;
 mod render;
 
 use anyhow::{Context, bail};
@@ -22,6 +23,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Gen(args) => generate::run(args),
+        Command::Refocus(args) => refocus::run(args),
     }
 }
 
