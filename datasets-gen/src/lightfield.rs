@@ -74,7 +74,7 @@ pub enum RefocusError {
 /// optical axis) with a synthetic aperture of radius `aperture`, using the linear HDR images
 /// where the frames have them. The result has the centre view's intrinsics.
 pub fn refocus(dataset: &Dataset, focus: f32, aperture: f32) -> Result<Image, RefocusError> {
-    if !(focus.is_finite() && focus > 0.0) || !(aperture.is_finite() && aperture >= 0.0) {
+    if !(focus.is_finite() && focus > 0.0 && aperture.is_finite() && aperture >= 0.0) {
         return Err(RefocusError::NotALightField(format!(
             "focus {focus} must be positive and aperture {aperture} non-negative"
         )));
@@ -141,11 +141,10 @@ fn bilinear(img: &Image, x: f32, y: f32) -> [f32; 4] {
     let (tx, ty) = (fx - x0, fy - y0);
     let at = |xi: i64, yi: i64| img.get(xi.clamp(0, w - 1) as usize, yi.clamp(0, h - 1) as usize);
     let (x0, y0) = (x0 as i64, y0 as i64);
-    let mut out = [0.0; 4];
-    for c in 0..4 {
-        let top = at(x0, y0)[c] * (1.0 - tx) + at(x0 + 1, y0)[c] * tx;
-        let bottom = at(x0, y0 + 1)[c] * (1.0 - tx) + at(x0 + 1, y0 + 1)[c] * tx;
-        out[c] = top * (1.0 - ty) + bottom * ty;
-    }
-    out
+    let (a, b, c, d) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+    std::array::from_fn(|i| {
+        let top = a[i] * (1.0 - tx) + b[i] * tx;
+        let bottom = c[i] * (1.0 - tx) + d[i] * tx;
+        top * (1.0 - ty) + bottom * ty
+    })
 }
