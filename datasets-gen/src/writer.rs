@@ -329,6 +329,22 @@ mod tests {
     use crate::AnalyticScene;
     use lucid_scene::Dataset;
 
+    /// A small orbit dataset of the analytic scene.
+    fn orbit_spec(width: u32, height: u32, counts: [usize; 3], seed: u64) -> DatasetSpec {
+        DatasetSpec {
+            width,
+            height,
+            fov_x: 0.8,
+            counts,
+            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed },
+            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
+            exposure: 0.0,
+            tone_curve: ToneCurve::Clip,
+            brackets: None,
+            light_field: None,
+        }
+    }
+
     #[test]
     fn refocused_light_field_matches_the_thin_lens_ground_truth() {
         use crate::lightfield::{LightFieldRig, refocus};
@@ -435,18 +451,7 @@ mod tests {
     #[test]
     fn point_cloud_lies_on_the_visible_surfaces() {
         let dir = tempfile::tempdir().unwrap();
-        let spec = DatasetSpec {
-            width: 96,
-            height: 64,
-            fov_x: 0.8,
-            counts: [3, 0, 1],
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 5 },
-            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
-            exposure: 0.0,
-            tone_curve: ToneCurve::Clip,
-            brackets: None,
-            light_field: None,
-        };
+        let spec = orbit_spec(96, 64, [3, 0, 1], 5);
         let scene = AnalyticScene::default();
         generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
         let ply = std::fs::File::open(dir.path().join("points3d.ply")).unwrap();
@@ -478,18 +483,7 @@ mod tests {
 
     #[test]
     fn shards_resume_and_merge_into_the_same_dataset() {
-        let spec = DatasetSpec {
-            width: 12,
-            height: 10,
-            fov_x: 0.8,
-            counts: [3, 2, 2],
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 9 },
-            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
-            exposure: 0.0,
-            tone_curve: ToneCurve::Clip,
-            brackets: None,
-            light_field: None,
-        };
+        let spec = orbit_spec(12, 10, [3, 2, 2], 9);
         let scene = AnalyticScene::default();
         let (whole, parts) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
         generate_dataset(whole.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
@@ -512,18 +506,7 @@ mod tests {
     #[test]
     fn generated_dataset_reads_back_with_matching_images() {
         let dir = tempfile::tempdir().unwrap();
-        let spec = DatasetSpec {
-            width: 24,
-            height: 16,
-            fov_x: 0.8,
-            counts: [3, 1, 2],
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 5 },
-            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
-            exposure: 0.0,
-            tone_curve: ToneCurve::Clip,
-            brackets: None,
-            light_field: None,
-        };
+        let spec = orbit_spec(24, 16, [3, 1, 2], 5);
         let scene = AnalyticScene::default();
         let out = generate_dataset(dir.path(), &spec, &scene, Shard::ALL, &|_, _| {}).unwrap();
         assert_eq!((out.counts, out.rendered, out.complete), ([3, 1, 2], 6, true));

@@ -37,13 +37,13 @@ pub struct Bvh {
 
 /// Intersection data in SIMD-friendly form: a triangle as a vertex and two edges.
 #[derive(Clone, Copy, Debug)]
-enum CompactShape {
+pub(super) enum CompactShape {
     Triangle { p0: Vec3A, e1: Vec3A, e2: Vec3A },
     Sphere { centre: Vec3A, radius2: f32 },
 }
 
 impl CompactShape {
-    fn new(shape: &Shape) -> Self {
+    pub(super) fn new(shape: &Shape) -> Self {
         match *shape {
             Shape::Triangle { p, .. } => {
                 CompactShape::Triangle { p0: p[0].into(), e1: (p[1] - p[0]).into(), e2: (p[2] - p[0]).into() }
@@ -54,9 +54,9 @@ impl CompactShape {
         }
     }
 
-    /// `(t, u, v)` of the nearest hit in `(t_min, t_max)`, as [`Shape::intersect`].
+    /// `(t, u, v)` of the nearest hit in `(t_min, t_max)`: barycentrics for triangles.
     #[inline(always)]
-    fn intersect(&self, origin: Vec3A, dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+    pub(super) fn intersect(&self, origin: Vec3A, dir: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
         match *self {
             CompactShape::Triangle { p0, e1, e2 } => {
                 let pv = dir.cross(e2);

@@ -135,51 +135,7 @@ impl Shape {
     /// triangles, unused for spheres.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-        match *self {
-            Shape::Sphere { centre, radius } => {
-                let oc = ray.origin - centre;
-                let b = oc.dot(ray.direction);
-                let c = oc.length_squared() - radius * radius;
-                let disc = b * b - c;
-                if disc < 0.0 {
-                    return None;
-                }
-                let sq = disc.sqrt();
-                // The numerically stable root pair: q = −b ∓ √disc, roots c/q and q.
-                let t0 = -b - sq;
-                let t1 = -b + sq;
-                if t0 > t_min && t0 < t_max {
-                    Some((t0, 0.0, 0.0))
-                } else if t1 > t_min && t1 < t_max {
-                    Some((t1, 0.0, 0.0))
-                } else {
-                    None
-                }
-            }
-            Shape::Triangle { p, .. } => {
-                // Möller–Trumbore.
-                let e1 = p[1] - p[0];
-                let e2 = p[2] - p[0];
-                let pv = ray.direction.cross(e2);
-                let det = e1.dot(pv);
-                if det.abs() < 1e-12 {
-                    return None;
-                }
-                let inv = 1.0 / det;
-                let tv = ray.origin - p[0];
-                let u = tv.dot(pv) * inv;
-                if !(0.0..=1.0).contains(&u) {
-                    return None;
-                }
-                let qv = tv.cross(e1);
-                let v = ray.direction.dot(qv) * inv;
-                if v < 0.0 || u + v > 1.0 {
-                    return None;
-                }
-                let t = e2.dot(qv) * inv;
-                (t > t_min && t < t_max).then_some((t, u, v))
-            }
-        }
+        bvh::CompactShape::new(self).intersect(ray.origin.into(), ray.direction.into(), t_min, t_max)
     }
 
     /// The full record of a hit found by [`Shape::intersect`].
