@@ -69,7 +69,7 @@ pub enum ResponseArg {
 /// `lucid gen`.
 #[derive(Debug, Args)]
 pub struct GenArgs {
-    /// A built-in scene (cornell, spheres, materials, media, object) or a scene .toml file.
+    /// A built-in scene (cornell, spheres, materials, media, object, studio) or a scene .toml file.
     pub scene: String,
     /// The camera rig.
     #[arg(long, value_enum, default_value_t = RigArg::Orbit)]

@@ -18,12 +18,13 @@ use crate::cli::{GenArgs, ResponseArg, RigArg};
 use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
 
 /// The scenes of `configs/scenes/`, compiled in so `lucid gen NAME` works anywhere.
-const BUILTIN_SCENES: [(&str, &str); 5] = [
+const BUILTIN_SCENES: [(&str, &str); 6] = [
     ("cornell", include_str!("../../../../configs/scenes/cornell.toml")),
     ("spheres", include_str!("../../../../configs/scenes/spheres.toml")),
     ("materials", include_str!("../../../../configs/scenes/materials.toml")),
     ("media", include_str!("../../../../configs/scenes/media.toml")),
     ("object", include_str!("../../../../configs/scenes/object.toml")),
+    ("studio", include_str!("../../../../configs/scenes/studio.toml")),
 ];
 
 /// A scene by built-in name or file path.
