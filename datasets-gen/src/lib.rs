@@ -9,6 +9,7 @@
 pub mod analytic;
 pub mod brackets;
 pub mod lightfield;
+pub mod olat;
 pub mod path_traced;
 pub mod point_cloud;
 pub mod rig;

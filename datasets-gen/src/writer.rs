@@ -13,8 +13,10 @@ use lucid_scene::{Intrinsics, PinholeCamera, Split};
 
 use crate::brackets::{BracketSpec, expose};
 use crate::lightfield::LightFieldRig;
+use crate::olat::{Lighting, OlatSpec};
 use crate::rig::OrbitRig;
 use lucid_image::color::srgb_decode;
+use lucid_trace::light::Light;
 
 /// The images a renderer produces for one view. All are linear; `colour` has straight
 /// alpha (0 where the background shows), the others carry the same alpha.
@@ -46,6 +48,17 @@ pub trait ViewRenderer: Sync {
     /// numbers the views of a dataset so that stochastic renderers can give each its own
     /// random streams.
     fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> RenderedView;
+
+    /// Renders the view under other lights than the scene's own (OLAT and relighting ground
+    /// truth); renderers that cannot relight say why.
+    fn render_lit(&self, _camera: &PinholeCamera, _lights: &[Light], _view: u64) -> Result<RenderedView, String> {
+        Err("this renderer cannot relight a scene".into())
+    }
+
+    /// Whether [`ViewRenderer::render_lit`] can work, checked before anything is written.
+    fn can_relight(&self) -> Result<(), String> {
+        Err("this renderer cannot relight a scene".into())
+    }
 }
 
 /// What to generate.
@@ -74,6 +87,10 @@ pub struct DatasetSpec {
     /// the sub-aperture views form the training split and the thin-lens ground truths the
     /// test split.
     pub light_field: Option<LightFieldRig>,
+    /// One light at a time: every orbit view of every split is rendered once per OLAT light
+    /// (`light_direction` per frame), and the test views also under each environment map
+    /// (`environment_file_path`, maps written to `envmaps/`).
+    pub olat: Option<OlatSpec>,
 }
 
 /// Why generation failed.
@@ -139,6 +156,7 @@ struct PlannedFrame {
     index: usize,
     pose: glam::Mat4,
     lens: Option<Lens>,
+    lighting: Option<Lighting>,
     stem: String,
 }
 
@@ -175,26 +193,67 @@ fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
     let mut frames = Vec::new();
     if let Some(lf) = &spec.light_field {
         for (i, (_, pose)) in lf.poses().into_iter().enumerate() {
-            frames.push(PlannedFrame { split: 0, index: i, pose, lens: None, stem: format!("train/r_{i}") });
+            frames.push(PlannedFrame {
+                split: 0,
+                index: i,
+                pose,
+                lens: None,
+                lighting: None,
+                stem: format!("train/r_{i}"),
+            });
         }
         for (i, &(focus_distance, aperture_radius)) in lf.ground_truth.iter().enumerate() {
             let lens = Some(Lens { aperture_radius, focus_distance });
-            frames.push(PlannedFrame { split: 2, index: i, pose: lf.centre_pose(), lens, stem: format!("test/r_{i}") });
+            frames.push(PlannedFrame {
+                split: 2,
+                index: i,
+                pose: lf.centre_pose(),
+                lens,
+                lighting: None,
+                stem: format!("test/r_{i}"),
+            });
         }
         return frames;
     }
     for (split_index, split) in Split::ALL.into_iter().enumerate() {
         for (i, pose) in spec.rig.poses(spec.counts[split_index], split_index as u64).into_iter().enumerate() {
-            frames.push(PlannedFrame {
-                split: split_index,
-                index: i,
-                pose,
-                lens: None,
-                stem: format!("{}/r_{i}", split.name()),
-            });
+            let stem = format!("{}/r_{i}", split.name());
+            let Some(olat) = &spec.olat else {
+                frames.push(PlannedFrame { split: split_index, index: i, pose, lens: None, lighting: None, stem });
+                continue;
+            };
+            for l in 0..olat.directions.len() {
+                let lighting = Some(Lighting::Light { index: l });
+                frames.push(PlannedFrame {
+                    split: split_index,
+                    index: i,
+                    pose,
+                    lens: None,
+                    lighting,
+                    stem: format!("{stem}_l{l}"),
+                });
+            }
+            if split == Split::Test {
+                for e in 0..olat.environments.len() {
+                    let lighting = Some(Lighting::Environment { index: e });
+                    frames.push(PlannedFrame {
+                        split: split_index,
+                        index: i,
+                        pose,
+                        lens: None,
+                        lighting,
+                        stem: format!("{stem}_env{e}"),
+                    });
+                }
+            }
         }
     }
     frames
+}
+
+/// Where environment map `k` of an OLAT dataset is stored, relative to the dataset root.
+fn environment_file(k: usize) -> String {
+    format!("envmaps/env_{k}.exr")
 }
 
 /// Renders the frames of `shard` that are not finished yet into `root` (created if needed),
@@ -218,6 +277,9 @@ pub fn generate_dataset(
     if shard.count == 0 || shard.index >= shard.count {
         return Err(GenError::Spec(format!("shard {}/{} does not exist", shard.index, shard.count)));
     }
+    if spec.olat.is_some() {
+        renderer.can_relight().map_err(GenError::Spec)?;
+    }
     let intrinsics = Intrinsics::from_fov_x(spec.width, spec.height, spec.fov_x);
     let frames = plan(spec);
     for split in Split::ALL {
@@ -225,12 +287,32 @@ pub fn generate_dataset(
         std::fs::create_dir_all(&folder).map_err(|source| GenError::Io { path: folder.clone(), source })?;
         remove_stale_temporaries(&folder);
     }
+    if let Some(olat) = &spec.olat {
+        let folder = root.join("envmaps");
+        std::fs::create_dir_all(&folder).map_err(|source| GenError::Io { path: folder.clone(), source })?;
+        for (k, (_, image)) in olat.environments.iter().enumerate() {
+            write_image(root.join(environment_file(k)), image)?;
+        }
+    }
     let mine: Vec<&PlannedFrame> = frames.iter().enumerate().filter(|(g, _)| shard.owns(*g)).map(|(_, f)| f).collect();
     let to_do: Vec<&&PlannedFrame> = mine.iter().filter(|f| !f.finished(root, spec)).collect();
     let skipped = mine.len() - to_do.len();
     for (done, frame) in to_do.iter().enumerate() {
         let camera = PinholeCamera::new(intrinsics, frame.pose);
-        let view = renderer.render(&camera, frame.lens, (frame.split * 1_000_000 + frame.index) as u64);
+        let view_number = (frame.split * 1_000_000 + frame.index) as u64;
+        let view = match (&frame.lighting, &spec.olat) {
+            (Some(lighting), Some(olat)) => {
+                // Each light gets its own random streams too.
+                let salt = match lighting {
+                    Lighting::Light { index } => 1 + *index as u64,
+                    Lighting::Environment { index } => 100_000 + *index as u64,
+                };
+                renderer
+                    .render_lit(&camera, &olat.lights(lighting), view_number ^ (salt << 32))
+                    .map_err(GenError::Spec)?
+            }
+            _ => renderer.render(&camera, frame.lens, view_number),
+        };
         let [png, exr, depth, normal, albedo] = frame.files();
         // The PNG last: a frame counts as finished only when all its files exist.
         write_image(root.join(&exr), &view.colour)?;
@@ -291,6 +373,14 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
                 albedo_file_path: Some(albedo),
                 aperture_radius: f.lens.map(|l| l.aperture_radius),
                 focus_distance: f.lens.map(|l| l.focus_distance),
+                light_direction: match (&f.lighting, &spec.olat) {
+                    (Some(Lighting::Light { index }), Some(olat)) => Some(olat.directions[*index]),
+                    _ => None,
+                },
+                environment_file_path: match &f.lighting {
+                    Some(Lighting::Environment { index }) => Some(environment_file(*index)),
+                    _ => None,
+                },
                 ..Default::default()
             };
             match &spec.brackets {
@@ -308,8 +398,12 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
         }
         write_transforms(&root.join(split.file_name()), &intrinsics, Some(spec.aabb), &records)?;
     }
-    let train: Vec<(String, glam::Mat4)> =
-        frames.iter().filter(|f| f.split == 0).map(|f| (f.stem.clone(), f.pose)).collect();
+    // One frame per training view (OLAT frames of a view share its geometry).
+    let train: Vec<(String, glam::Mat4)> = frames
+        .iter()
+        .filter(|f| f.split == 0 && matches!(f.lighting, None | Some(Lighting::Light { index: 0 })))
+        .map(|f| (f.stem.clone(), f.pose))
+        .collect();
     crate::point_cloud::write_point_cloud(root, &intrinsics, &train, POINT_CLOUD_SIZE)?;
     Ok(true)
 }
@@ -342,6 +436,7 @@ mod tests {
             tone_curve: ToneCurve::Clip,
             brackets: None,
             light_field: None,
+            olat: None,
         }
     }
 
@@ -372,6 +467,7 @@ mod tests {
             tone_curve: ToneCurve::Clip,
             brackets: None,
             light_field: Some(lf),
+            olat: None,
         };
         let out = generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
         assert_eq!(out.counts, [81, 0, 2]);
@@ -406,6 +502,50 @@ mod tests {
     }
 
     #[test]
+    fn olat_frames_have_one_light_each_and_light_adds_up_linearly() {
+        use crate::olat::{OlatSpec, builtin_environments, sphere_directions};
+        use crate::path_traced::PathTracedScene;
+        let loaded =
+            lucid_trace::parse_scene(include_str!("../../configs/scenes/studio.toml"), Path::new("studio.toml"))
+                .unwrap();
+        let renderer = PathTracedScene {
+            scene: loaded.scene,
+            settings: lucid_trace::RenderSettings { spp: 512, ..loaded.settings },
+        };
+        let olat = OlatSpec { directions: sphere_directions(2), irradiance: 3.0, environments: builtin_environments() };
+        let spec = DatasetSpec { olat: Some(olat.clone()), ..orbit_spec(24, 24, [1, 0, 1], 4) };
+        let dir = tempfile::tempdir().unwrap();
+        let out = generate_dataset(dir.path(), &spec, &renderer, Shard::ALL, &|_, _| {}).unwrap();
+        assert_eq!(out.counts, [2, 0, 4], "train: 1 view x 2 lights; test: 2 lights + 2 environments");
+        let ds = lucid_scene::Dataset::open(dir.path()).unwrap();
+        let train = ds.frames(Split::Train);
+        for (l, f) in train.iter().enumerate() {
+            assert_eq!(f.extras.light_direction, Some(olat.directions[l]));
+        }
+        let env_frames: Vec<_> =
+            ds.frames(Split::Test).iter().filter(|f| f.extras.environment_path.is_some()).collect();
+        assert_eq!(env_frames.len(), 2);
+        assert!(env_frames[0].extras.environment_path.as_ref().unwrap().is_file());
+
+        // Light transport is linear: the view under both lights at once is the sum of the two
+        // one-light images, up to Monte Carlo noise of the means (measured within 0.5% at
+        // 512 spp; at 64 spp the metal ring's highlights alone made it 10%).
+        let read =
+            |f: &lucid_scene::Frame| lucid_image::read_image(f.extras.hdr_path.as_ref().unwrap()).unwrap().mean();
+        let (a, b) = (read(&train[0]), read(&train[1]));
+        let both_lights: Vec<_> = olat
+            .lights(&crate::olat::Lighting::Light { index: 0 })
+            .into_iter()
+            .chain(olat.lights(&crate::olat::Lighting::Light { index: 1 }))
+            .collect();
+        let both = renderer.render_lit(&train[0].camera, &both_lights, 77).unwrap().colour.mean();
+        for c in 0..3 {
+            let sum = a[c] + b[c];
+            assert!((both[c] - sum).abs() < 0.02 * sum, "channel {c}: both {} vs sum {sum}", both[c]);
+        }
+    }
+
+    #[test]
     fn bracket_datasets_list_each_exposure_and_recover_the_hdr() {
         use crate::brackets::{BracketSpec, CameraResponse, SensorNoise};
         let dir = tempfile::tempdir().unwrap();
@@ -422,6 +562,7 @@ mod tests {
             tone_curve: ToneCurve::Clip,
             brackets: Some(BracketSpec { exposure_times: times.clone(), response, noise: SensorNoise::NONE }),
             light_field: None,
+            olat: None,
         };
         generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
         let ds = lucid_scene::Dataset::open(dir.path()).unwrap();

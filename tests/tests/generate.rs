@@ -182,3 +182,24 @@ fn light_field_refocus_is_closer_to_the_thin_lens_truth_than_the_centre_view() {
     lucid_in(dir.path(), &["refocus", "lf", "--focus", "-1", "--aperture", "0.3", "-o", "bad.exr"]).failure(&["focus"]);
     assert!(!dir.path().join("bad.exr").exists());
 }
+
+#[test]
+fn olat_rig_writes_one_frame_per_light_and_environment_truths() {
+    let dir = temp_dir();
+    let args = [
+        "gen", "studio", "--rig", "olat", "-o", "olat", "--views", "2,0,1", "--res", "16", "--spp", "2", "--lights",
+        "3",
+    ];
+    lucid_in(dir.path(), &args).success();
+    let info = lucid_in(dir.path(), &["info", "olat", "--json"]).success().json();
+    assert_eq!(info["splits"][0]["frames"], 6, "2 views x 3 lights");
+    assert_eq!(info["splits"][0]["extras"]["light_direction"], 6);
+    assert_eq!(info["splits"][2]["frames"], 5, "1 view x (3 lights + 2 environments)");
+    assert!(dir.path().join("olat/envmaps/env_0.exr").is_file() && dir.path().join("olat/envmaps/env_1.exr").is_file());
+    // Scenes with emissive shapes cannot be relit.
+    let args = [
+        "gen", "cornell", "--rig", "olat", "-o", "bad", "--views", "1,0,0", "--res", "8", "--spp", "1", "--lights", "2",
+    ];
+    lucid_in(dir.path(), &args).failure(&["cornell", "emissive"]);
+    assert!(!dir.path().join("bad").exists(), "nothing is written for an impossible request");
+}

@@ -55,6 +55,9 @@ pub enum RigArg {
     /// A U×V grid of parallel cameras (sub-aperture views, the training split) and thin-lens
     /// ground truths from its centre (the test split), for refocusing.
     Lightfield,
+    /// Orbit views, each rendered once per directional light spread over the sphere (one light
+    /// at a time, linear HDR), plus the test views under held-out environment maps.
+    Olat,
 }
 
 /// Camera response curves of the brackets rig.
@@ -77,8 +80,8 @@ pub struct GenArgs {
     /// Output dataset folder.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Views in the train, val and test splits, as TRAIN,VAL,TEST.
-    #[arg(long, default_value = "100,10,25", value_parser = parse_split_counts)]
+    /// Views in the train, val and test splits, as TRAIN,VAL,TEST (the Blender set's split).
+    #[arg(long, default_value = "100,100,200", value_parser = parse_split_counts)]
     pub views: [usize; 3],
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 200)]
@@ -130,6 +133,12 @@ pub struct GenArgs {
     /// Light-field rig: aperture radii of the thin-lens ground truths.
     #[arg(long, value_delimiter = ',', default_value = "0.2,0.4")]
     pub apertures: Vec<f32>,
+    /// OLAT rig: number of directional lights, spread over the sphere.
+    #[arg(long, default_value_t = 32)]
+    pub lights: usize,
+    /// OLAT rig: irradiance of each light (π: a white diffuse surface facing it renders 1).
+    #[arg(long, default_value_t = std::f32::consts::PI)]
+    pub light_irradiance: f32,
 }
 
 /// `lucid refocus`.

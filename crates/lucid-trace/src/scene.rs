@@ -31,6 +31,21 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The same geometry and materials under other lights (point, spot, directional or
+    /// environment): for one-light-at-a-time captures and relighting ground truth. Scenes with
+    /// emissive shapes cannot be relit, since their emitters are part of the geometry.
+    pub fn relit(&self, lights: Vec<Light>) -> Result<Scene, String> {
+        if self.bvh.primitives().iter().any(|p| p.light.is_some()) {
+            return Err("the scene has emissive shapes; relighting replaces lights, not geometry".into());
+        }
+        if lights.iter().any(|l| matches!(l, Light::Area { .. })) {
+            return Err("area lights need emissive shapes; use point, spot, directional or environment lights".into());
+        }
+        let environment =
+            lights.iter().position(|l| matches!(l, Light::ConstantEnvironment { .. } | Light::EnvironmentMap(_)));
+        Ok(Scene { lights, environment, ..self.clone() })
+    }
+
     /// Whether rays may cross media or index-matched boundaries (shadow rays then need
     /// transmittance rather than a plain occlusion test).
     pub fn has_media(&self) -> bool {

@@ -44,6 +44,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         tone_curve: ToneCurve::Aces,
         brackets: None,
         light_field: None,
+        olat: None,
     };
     let mut loaded = super::generate::load_named_scene("object")?;
     loaded.settings.spp = args.spp;

@@ -16,6 +16,8 @@ use serde::Serialize;
 
 use crate::cli::{GenArgs, ResponseArg, RigArg};
 use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
+use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, sphere_directions};
+use lucid_datasets_gen::writer::ViewRenderer;
 
 /// The scenes of `configs/scenes/`, compiled in so `lucid gen NAME` works anywhere.
 const BUILTIN_SCENES: [(&str, &str); 6] = [
@@ -61,6 +63,8 @@ struct DatasetRecord<'a> {
     grid: Option<Vec<usize>>,
     spacing: Option<f32>,
     ground_truth: Option<Vec<(f32, f32)>>,
+    lights: Option<usize>,
+    light_irradiance: Option<f32>,
 }
 
 pub fn run(args: GenArgs) -> anyhow::Result<()> {
@@ -90,6 +94,23 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         RigArg::Orbit => "orbit",
         RigArg::Brackets => "brackets",
         RigArg::Lightfield => "lightfield",
+        RigArg::Olat => "olat",
+    };
+    let olat = match args.rig {
+        RigArg::Olat => {
+            if args.lights == 0 || args.lights > 4096 {
+                bail!("--lights must be in 1..=4096");
+            }
+            if !(args.light_irradiance.is_finite() && args.light_irradiance > 0.0) {
+                bail!("--light-irradiance must be positive");
+            }
+            Some(OlatSpec {
+                directions: sphere_directions(args.lights),
+                irradiance: args.light_irradiance,
+                environments: builtin_environments(),
+            })
+        }
+        _ => None,
     };
     let light_field = match args.rig {
         RigArg::Lightfield => {
@@ -140,7 +161,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
                 },
             })
         }
-        RigArg::Lightfield => None,
+        RigArg::Lightfield | RigArg::Olat => None,
     };
     let spec = DatasetSpec {
         width: args.res,
@@ -158,6 +179,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         tone_curve: ToneCurve::Clip,
         brackets: brackets.clone(),
         light_field: light_field.clone(),
+        olat: olat.clone(),
     };
     let record = DatasetRecord {
         generator: format!("lucid {}", env!("CARGO_PKG_VERSION")),
@@ -181,7 +203,13 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         grid: light_field.as_ref().map(|l| l.grid.to_vec()),
         spacing: light_field.as_ref().map(|l| l.spacing),
         ground_truth: light_field.as_ref().map(|l| l.ground_truth.clone()),
+        lights: olat.as_ref().map(|o| o.directions.len()),
+        light_irradiance: olat.as_ref().map(|o| o.irradiance),
     };
+    let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
+    if spec.olat.is_some() {
+        renderer.can_relight().map_err(|e| anyhow::anyhow!("{}: cannot make an OLAT set: {e}", args.scene))?;
+    }
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
     // folder cannot mix frames made with different ones.
     let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
@@ -221,7 +249,6 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         loaded.settings.spp,
         args.output.display()
     );
-    let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     let bar = crate::progress::bar(0, "rendering");
     let started = std::time::Instant::now();
     let out = generate_dataset(&args.output, &spec, &renderer, shard, &|done, to_do| {

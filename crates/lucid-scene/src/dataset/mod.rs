@@ -13,6 +13,7 @@
 //!                 "depth_file_path": "train/r_0_depth.exr",
 //!                 "normal_file_path": "train/r_0_normal.exr",
 //!                 "albedo_file_path": "train/r_0_albedo.exr",
+//!                 "environment_file_path": "envmaps/env_0.exr",
 //!                 "exposure_time": 0.25, "light_direction": [0,0,1],
 //!                 "aperture_radius": 0.05, "focus_distance": 4.0 } ] }
 //! ```
@@ -78,6 +79,8 @@ pub struct FrameExtras {
     pub normal_path: Option<PathBuf>,
     /// Surface albedo (`albedo_file_path`).
     pub albedo_path: Option<PathBuf>,
+    /// The lat-long environment map the frame is lit by (`environment_file_path`).
+    pub environment_path: Option<PathBuf>,
     /// Exposure time in seconds (`exposure_time`).
     pub exposure_time: Option<f32>,
     /// Direction towards a directional light, world space (`light_direction`).

@@ -152,6 +152,7 @@ impl Context<'_> {
             depth_path: self.extra_path(base, frame, "depth_file_path", key)?,
             normal_path: self.extra_path(base, frame, "normal_file_path", key)?,
             albedo_path: self.extra_path(base, frame, "albedo_file_path", key)?,
+            environment_path: self.extra_path(base, frame, "environment_file_path", key)?,
             exposure_time: self.positive(frame, "exposure_time", &format!("{key}.exposure_time"))?,
             light_direction: self.vec3(frame, "light_direction", &format!("{key}.light_direction"))?,
             aperture_radius: self.number(frame, "aperture_radius", &format!("{key}.aperture_radius"))?,

@@ -26,6 +26,8 @@ pub struct FrameRecord {
     pub normal_file_path: Option<String>,
     /// `albedo_file_path`.
     pub albedo_file_path: Option<String>,
+    /// `environment_file_path`.
+    pub environment_file_path: Option<String>,
     /// `exposure_time` in seconds.
     pub exposure_time: Option<f32>,
     /// `light_direction` (towards the light, world space).
@@ -82,6 +84,7 @@ fn frame_json(frame: &FrameRecord) -> Value {
     put("depth_file_path", frame.depth_file_path.as_ref().map(|p| json!(p)));
     put("normal_file_path", frame.normal_file_path.as_ref().map(|p| json!(p)));
     put("albedo_file_path", frame.albedo_file_path.as_ref().map(|p| json!(p)));
+    put("environment_file_path", frame.environment_file_path.as_ref().map(|p| json!(p)));
     put("exposure_time", frame.exposure_time.map(|v| json!(v)));
     put("light_direction", frame.light_direction.map(|v| json!(v.to_array())));
     put("aperture_radius", frame.aperture_radius.map(|v| json!(v)));
