@@ -81,15 +81,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         bail!("--views needs at least one training view");
     }
     let mut loaded = load_named_scene(&args.scene)?;
-    if let Some(spp) = args.spp {
-        if spp == 0 {
-            bail!("--spp must be at least 1");
-        }
-        loaded.settings.spp = spp;
-    }
-    if let Some(seed) = args.seed {
-        loaded.settings.seed = seed;
-    }
+    super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     let rig_name = match args.rig {
         RigArg::Orbit => "orbit",
         RigArg::Brackets => "brackets",

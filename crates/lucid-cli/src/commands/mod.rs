@@ -27,6 +27,24 @@ pub fn run(command: Command) -> anyhow::Result<()> {
     }
 }
 
+/// Applies `--spp` and `--seed` overrides to a scene's render settings.
+pub fn override_samples(
+    settings: &mut lucid_trace::RenderSettings,
+    spp: Option<u32>,
+    seed: Option<u64>,
+) -> anyhow::Result<()> {
+    if let Some(spp) = spp {
+        if spp == 0 {
+            bail!("--spp must be at least 1");
+        }
+        settings.spp = spp;
+    }
+    if let Some(seed) = seed {
+        settings.seed = seed;
+    }
+    Ok(())
+}
+
 /// Parses a background colour: `white`, `black`, `grey`, or `R,G,B` with components in [0,1].
 pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
     match text.to_ascii_lowercase().as_str() {

@@ -16,15 +16,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: render writes .exr or .png (with the other beside it)", args.output.display());
     }
     let mut loaded = load_scene(&args.scene)?;
-    if let Some(spp) = args.spp {
-        if spp == 0 {
-            bail!("--spp must be at least 1");
-        }
-        loaded.settings.spp = spp;
-    }
-    if let Some(seed) = args.seed {
-        loaded.settings.seed = seed;
-    }
+    super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     if let Some(depth) = args.max_depth {
         if depth == 0 {
             bail!("--max-depth must be at least 1");
