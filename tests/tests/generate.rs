@@ -203,3 +203,51 @@ fn olat_rig_writes_one_frame_per_light_and_environment_truths() {
     lucid_in(dir.path(), &args).failure(&["cornell", "emissive"]);
     assert!(!dir.path().join("bad").exists(), "nothing is written for an impossible request");
 }
+
+#[test]
+fn rig_files_set_options_and_the_command_line_wins() {
+    let dir = temp_dir();
+    std::fs::write(
+        dir.path().join("small.toml"),
+        "type = \"brackets\"\nviews = [2, 0, 1]\nres = 20\nexposures = [-1.0, 1.0]\n",
+    )
+    .unwrap();
+    lucid_in(dir.path(), &["gen", "spheres", "--rig", "small.toml", "-o", "a", "--spp", "1", "--res", "12"]).success();
+    let info = lucid_in(dir.path(), &["info", "a", "--json"]).success().json();
+    assert_eq!(info["splits"][0]["frames"], 4, "2 views x 2 exposures from the file");
+    assert_eq!(info["splits"][0]["resolutions"][0], "12x12", "--res on the command line wins");
+    let record = std::fs::read_to_string(dir.path().join("a/dataset.toml")).unwrap();
+    assert!(record.contains("rig = \"brackets\""), "{record}");
+    // Every shipped rig file works (shrunk from the command line to stay quick).
+    for (rig, extra) in [("orbit", "--res"), ("brackets", "--res"), ("lightfield", "--grid"), ("olat", "--lights")] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../configs/rigs/{rig}.toml"));
+        let path = path.to_string_lossy().into_owned();
+        let value = match extra {
+            "--grid" => "2,2",
+            "--lights" => "1",
+            _ => "8",
+        };
+        let out = format!("shipped_{rig}");
+        let args = [
+            "gen",
+            "studio",
+            "--rig",
+            path.as_str(),
+            "-o",
+            out.as_str(),
+            "--views",
+            "1,0,1",
+            "--spp",
+            "1",
+            extra,
+            value,
+        ];
+        lucid_in(dir.path(), &args).success();
+        let record = std::fs::read_to_string(dir.path().join(&out).join("dataset.toml")).unwrap();
+        assert!(record.contains(&format!("rig = \"{rig}\"")), "{record}");
+    }
+    std::fs::write(dir.path().join("typo.toml"), "type = \"orbit\"\nresolution = 20\n").unwrap();
+    lucid_in(dir.path(), &["gen", "spheres", "--rig", "typo.toml", "-o", "b"]).failure(&["typo.toml", "resolution"]);
+    lucid_in(dir.path(), &["gen", "spheres", "--rig", "nope", "-o", "b"]).failure(&["nope", "not a rig"]);
+    assert!(!dir.path().join("b").exists());
+}

@@ -45,7 +45,8 @@ pub enum Command {
 }
 
 /// Camera rigs of `lucid gen`.
-#[derive(Clone, Copy, Debug, ValueEnum)]
+#[derive(Clone, Copy, Debug, ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum RigArg {
     /// Cameras on the upper hemisphere (or sphere) around the origin, looking at it.
     Orbit,
@@ -61,7 +62,8 @@ pub enum RigArg {
 }
 
 /// Camera response curves of the brackets rig.
-#[derive(Clone, Copy, Debug, ValueEnum)]
+#[derive(Clone, Copy, Debug, ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ResponseArg {
     /// The sRGB transfer function.
     Srgb,
@@ -74,9 +76,11 @@ pub enum ResponseArg {
 pub struct GenArgs {
     /// A built-in scene (cornell, spheres, materials, media, object, studio) or a scene .toml file.
     pub scene: String,
-    /// The camera rig.
-    #[arg(long, value_enum, default_value_t = RigArg::Orbit)]
-    pub rig: RigArg,
+    /// The camera rig: orbit, brackets, lightfield, olat, or a rig file (configs/rigs/*.toml)
+    /// whose `type` is one of those and whose keys set the options below (options given on
+    /// the command line win).
+    #[arg(long, default_value = "orbit")]
+    pub rig: String,
     /// Output dataset folder.
     #[arg(short, long)]
     pub output: PathBuf,

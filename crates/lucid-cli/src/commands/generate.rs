@@ -67,7 +67,8 @@ struct DatasetRecord<'a> {
     light_irradiance: Option<f32>,
 }
 
-pub fn run(args: GenArgs) -> anyhow::Result<()> {
+pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
+    let rig = super::rig_file::resolve_rig(&mut args, matches)?;
     if args.res == 0 || args.res > 8192 {
         bail!("--res {} must be in 1..=8192", args.res);
     }
@@ -82,13 +83,13 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
     }
     let mut loaded = load_named_scene(&args.scene)?;
     super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
-    let rig_name = match args.rig {
+    let rig_name = match rig {
         RigArg::Orbit => "orbit",
         RigArg::Brackets => "brackets",
         RigArg::Lightfield => "lightfield",
         RigArg::Olat => "olat",
     };
-    let olat = match args.rig {
+    let olat = match rig {
         RigArg::Olat => {
             if args.lights == 0 || args.lights > 4096 {
                 bail!("--lights must be in 1..=4096");
@@ -104,7 +105,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         }
         _ => None,
     };
-    let light_field = match args.rig {
+    let light_field = match rig {
         RigArg::Lightfield => {
             let [u, v] = args.grid[..] else { bail!("--grid takes two counts, U,V") };
             if u == 0 || v == 0 || u * v > 10_000 {
@@ -131,7 +132,7 @@ pub fn run(args: GenArgs) -> anyhow::Result<()> {
         }
         _ => None,
     };
-    let brackets = match args.rig {
+    let brackets = match rig {
         RigArg::Orbit => None,
         RigArg::Brackets => {
             if args.exposures.is_empty() || args.exposures.iter().any(|s| !s.is_finite() || s.abs() > 30.0) {

@@ -8,13 +8,16 @@ mod info;
 mod metrics;
 mod refocus;
 mod render;
+mod rig_file;
 
 use anyhow::{Context, bail};
 
 use crate::cli::Command;
 
 /// Runs one subcommand.
-pub fn run(command: Command) -> anyhow::Result<()> {
+/// `matches` are the parsed arguments, for commands that need to know which options were
+/// given explicitly.
+pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     match command {
         Command::Demo(args) => demo::run(args),
         Command::Convert(args) => convert::run(args),
@@ -22,7 +25,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Info(args) => info::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
-        Command::Gen(args) => generate::run(args),
+        Command::Gen(args) => generate::run(args, matches.subcommand_matches("gen").expect("gen was parsed")),
         Command::Refocus(args) => refocus::run(args),
     }
 }

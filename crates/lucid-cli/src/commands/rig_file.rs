@@ -1,0 +1,80 @@
+//! Rig files (`configs/rigs/*.toml`): a rig type and its options, applied to `lucid gen`
+//! wherever the command line did not set the option itself.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use clap::parser::ValueSource;
+use serde::Deserialize;
+
+use crate::cli::{GenArgs, ResponseArg, RigArg};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigFile {
+    #[serde(rename = "type")]
+    kind: RigArg,
+    views: Option<[usize; 3]>,
+    res: Option<u32>,
+    fov: Option<f32>,
+    radius: Option<f32>,
+    full_sphere: Option<bool>,
+    exposures: Option<Vec<f32>>,
+    response: Option<ResponseArg>,
+    full_well: Option<f32>,
+    read_noise: Option<f32>,
+    grid: Option<[usize; 2]>,
+    spacing: Option<f32>,
+    focus: Option<Vec<f32>>,
+    apertures: Option<Vec<f32>>,
+    lights: Option<usize>,
+    light_irradiance: Option<f32>,
+}
+
+/// The rig type named by `--rig`, after applying a rig file's options to `args`.
+pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<RigArg> {
+    match args.rig.as_str() {
+        "orbit" => return Ok(RigArg::Orbit),
+        "brackets" => return Ok(RigArg::Brackets),
+        "lightfield" => return Ok(RigArg::Lightfield),
+        "olat" => return Ok(RigArg::Olat),
+        _ => {}
+    }
+    let path = Path::new(&args.rig);
+    if !path.is_file() {
+        bail!("{}: not a rig (orbit, brackets, lightfield, olat) nor a rig file", args.rig);
+    }
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let file: RigFile = toml::from_str(&text)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim().replace('\n', " ")))?;
+    let from_file = |id: &str| matches.value_source(id) != Some(ValueSource::CommandLine);
+    macro_rules! apply {
+        ($($field:ident),*) => {$(
+            if let Some(v) = file.$field.clone() && from_file(stringify!($field)) {
+                args.$field = v.into();
+            }
+        )*};
+    }
+    apply!(
+        views,
+        res,
+        fov,
+        radius,
+        full_sphere,
+        exposures,
+        response,
+        full_well,
+        read_noise,
+        spacing,
+        focus,
+        apertures,
+        lights,
+        light_irradiance
+    );
+    if let Some(grid) = file.grid
+        && from_file("grid")
+    {
+        args.grid = grid.to_vec();
+    }
+    Ok(file.kind)
+}
