@@ -456,19 +456,7 @@ mod tests {
             spacing: 0.15,
             ground_truth: ground_truth.clone(),
         };
-        let spec = DatasetSpec {
-            width: 64,
-            height: 48,
-            fov_x: 0.7,
-            counts: [0, 0, 0],
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 1 },
-            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
-            exposure: 0.0,
-            tone_curve: ToneCurve::Clip,
-            brackets: None,
-            light_field: Some(lf),
-            olat: None,
-        };
+        let spec = DatasetSpec { fov_x: 0.7, light_field: Some(lf), ..orbit_spec(64, 48, [0, 0, 0], 1) };
         let out = generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
         assert_eq!(out.counts, [81, 0, 2]);
         let ds = lucid_scene::Dataset::open(dir.path()).unwrap();
@@ -552,17 +540,8 @@ mod tests {
         let response = CameraResponse::SCurve { contrast: 1.4 };
         let times = vec![0.25f32, 1.0, 4.0];
         let spec = DatasetSpec {
-            width: 32,
-            height: 24,
-            fov_x: 0.8,
-            counts: [2, 0, 1],
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed: 2 },
-            aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
-            exposure: 0.0,
-            tone_curve: ToneCurve::Clip,
             brackets: Some(BracketSpec { exposure_times: times.clone(), response, noise: SensorNoise::NONE }),
-            light_field: None,
-            olat: None,
+            ..orbit_spec(32, 24, [2, 0, 1], 2)
         };
         generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
         let ds = lucid_scene::Dataset::open(dir.path()).unwrap();
