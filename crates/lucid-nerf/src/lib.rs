@@ -8,7 +8,11 @@
 
 pub mod backend;
 pub mod encoding;
+pub mod field;
+pub mod field_ops;
 pub mod kernels;
+pub mod occupancy;
+pub mod render;
 
 pub use encoding::hash_grid::{HashGridConfig, HashGridLayout, LevelLayout};
 pub use kernels::hash_grid_encode;

@@ -1,6 +1,54 @@
-//! Low-level warps from the unit square, shared by the cameras and the renderer.
+//! Random numbers and low-level warps from the unit square, shared by the cameras, the
+//! renderer and the trainers.
 
 use glam::Vec2;
+
+/// PCG32 (O'Neill): small state, good statistics, and cheap to seed per pixel, which is
+/// how renders stay identical whatever the thread count.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    increment: u64,
+}
+
+impl Rng {
+    /// A generator for stream `stream` of `seed` (e.g. the pixel index).
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut rng = Self { state: 0, increment: (stream << 1) | 1 };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(mix(seed));
+        rng.next_u32();
+        rng
+    }
+
+    /// The next 32 random bits.
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.increment);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in `[0, 1)`.
+    pub fn uniform(&mut self) -> f32 {
+        // 24 bits fill an f32 mantissa exactly, so the result is never 1.
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    /// Two uniforms.
+    pub fn uniform2(&mut self) -> Vec2 {
+        Vec2::new(self.uniform(), self.uniform())
+    }
+}
+
+/// SplitMix64 finaliser: spreads nearby seeds far apart.
+pub fn mix(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
 
 /// Shirley–Chiu concentric map from `[0,1)²` to the unit disk: area-preserving and with
 /// low distortion, so stratified samples stay stratified on the lens.
@@ -20,6 +68,27 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rng_is_uniform_and_streams_differ() {
+        let mut rng = Rng::new(42, 7);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        let mut buckets = [0u32; 10];
+        for _ in 0..n {
+            let u = rng.uniform();
+            assert!((0.0..1.0).contains(&u));
+            sum += u as f64;
+            buckets[(u * 10.0) as usize] += 1;
+        }
+        assert!((sum / n as f64 - 0.5).abs() < 0.003);
+        for b in buckets {
+            assert!((b as f64 / n as f64 - 0.1).abs() < 0.003, "{buckets:?}");
+        }
+        let a: Vec<u32> = (0..4).map(|_| Rng::new(1, 0).next_u32()).collect();
+        assert_eq!(a[0], a[1], "same seed and stream, same numbers");
+        assert_ne!(Rng::new(1, 0).next_u32(), Rng::new(1, 1).next_u32());
+    }
 
     #[test]
     fn concentric_disk_stays_inside_and_preserves_area() {

@@ -13,7 +13,8 @@
 use rayon::prelude::*;
 
 /// Hyper-parameters of the encoding.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct HashGridConfig {
     /// Number of levels `L`.
     pub levels: usize,
@@ -175,17 +176,25 @@ impl HashGridLayout {
         assert_eq!(out.len(), positions.len() / 3 * width, "output has the wrong size");
         out.par_chunks_mut(CHUNK * width).zip(positions.par_chunks(CHUNK * 3)).for_each(|(out, pos)| {
             for (o, p) in out.chunks_exact_mut(width).zip(pos.chunks_exact(3)) {
-                for (l, level) in self.levels.iter().enumerate() {
-                    let acc = &mut o[l * f..(l + 1) * f];
-                    acc.fill(0.0);
-                    for (row, w) in level.corners([p[0], p[1], p[2]]) {
-                        for (a, t) in acc.iter_mut().zip(&table[row * f..(row + 1) * f]) {
-                            *a += w * t;
-                        }
-                    }
-                }
+                self.encode_point([p[0], p[1], p[2]], table, o);
             }
         });
+    }
+
+    /// Encodes one point into `out` (`L·F` values), serially: for callers that already run
+    /// in a parallel task (the fused field kernel).
+    #[inline]
+    pub fn encode_point(&self, p: [f32; 3], table: &[f32], out: &mut [f32]) {
+        let f = self.features;
+        for (l, level) in self.levels.iter().enumerate() {
+            let acc = &mut out[l * f..(l + 1) * f];
+            acc.fill(0.0);
+            for (row, w) in level.corners(p) {
+                for (a, t) in acc.iter_mut().zip(&table[row * f..(row + 1) * f]) {
+                    *a += w * t;
+                }
+            }
+        }
     }
 
     /// Accumulates `∂loss/∂table` into `grad_table` (`entries×F`, zeroed by the caller) from

@@ -1,0 +1,490 @@
+//! The radiance field of instant-ngp as one fused kernel: hash-grid encoding → density MLP
+//! (the first output is log-density, the rest geometry features) → with the spherical-harmonic
+//! encoding of the view direction → colour MLP → RGB. Plain Rust over slices, parallel over
+//! chunks of samples with rayon, matrix products on `gemm`.
+//!
+//! Fused by hand because burn's per-layer ops on the CPU spend more time allocating and
+//! copying `S×64` activations than multiplying them (see the NeRF issue's measurements); the
+//! weights are still burn parameters (a table and one flat MLP vector).
+
+pub mod mlp;
+
+use rayon::prelude::*;
+
+use crate::encoding::hash_grid::{HashGridConfig, HashGridLayout};
+use crate::encoding::spherical_harmonics::{SH_COEFFICIENTS, sh_encode};
+use mlp::{MlpShape, View, matmul, matmul_raw};
+
+/// Largest log-density passed to `exp` (and the clamp of its gradient): `exp(15) ≈ 3·10⁶`.
+const MAX_LOG_DENSITY: f32 = 15.0;
+
+/// Samples per parallel task: rows of every matrix product.
+const CHUNK: usize = 128;
+
+/// Hyper-parameters of the field.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FieldConfig {
+    /// The position encoding.
+    pub grid: HashGridConfig,
+    /// Width of every hidden layer.
+    pub hidden: usize,
+    /// Outputs of the density MLP (log-density first, then geometry features).
+    pub geometry_features: usize,
+    /// Hidden layers of the density MLP.
+    pub density_hidden_layers: usize,
+    /// Hidden layers of the colour MLP.
+    pub colour_hidden_layers: usize,
+}
+
+impl Default for FieldConfig {
+    /// instant-ngp's NeRF: 64 wide, 16 geometry features, 1 + 2 hidden layers.
+    fn default() -> Self {
+        Self {
+            grid: HashGridConfig::default(),
+            hidden: 64,
+            geometry_features: 16,
+            density_hidden_layers: 1,
+            colour_hidden_layers: 2,
+        }
+    }
+}
+
+impl FieldConfig {
+    /// Checks the values; the message names the wrong one.
+    pub fn validate(&self) -> Result<(), String> {
+        self.grid.validate()?;
+        if !(1..=512).contains(&self.hidden) {
+            return Err(format!("hidden must be in 1..=512, got {}", self.hidden));
+        }
+        if !(1..=256).contains(&self.geometry_features) {
+            return Err(format!("geometry_features must be in 1..=256, got {}", self.geometry_features));
+        }
+        if self.density_hidden_layers > 8 || self.colour_hidden_layers > 8 {
+            return Err("at most 8 hidden layers per MLP".into());
+        }
+        Ok(())
+    }
+
+    /// Where everything lives.
+    pub fn layout(&self) -> FieldLayout {
+        let grid = self.grid.layout();
+        let (h, g) = (self.hidden, self.geometry_features);
+        let mut dims = vec![grid.output_dim()];
+        dims.extend(std::iter::repeat_n(h, self.density_hidden_layers));
+        dims.push(g);
+        let density = MlpShape::new(dims, 0);
+        let mut dims = vec![g + SH_COEFFICIENTS];
+        dims.extend(std::iter::repeat_n(h, self.colour_hidden_layers));
+        dims.push(3);
+        let colour = MlpShape::new(dims, density.end());
+        FieldLayout::new(grid, density, colour)
+    }
+}
+
+/// The table and MLP layouts, and where each activation sits in a saved row.
+#[derive(Clone, Debug)]
+pub struct FieldLayout {
+    /// The hash grid.
+    pub grid: HashGridLayout,
+    /// Density MLP (weights from 0).
+    pub density: MlpShape,
+    /// Colour MLP (weights after the density MLP's).
+    pub colour: MlpShape,
+    /// Start of each density layer's output in a saved row (the encoding is at 0).
+    density_out: Vec<usize>,
+    /// Start of each colour layer's output; its input (geometry features + SH) is at `colour_in`.
+    colour_out: Vec<usize>,
+    colour_in: usize,
+    /// `σ, r, g, b` after activation.
+    result: usize,
+    stride: usize,
+}
+
+impl FieldLayout {
+    fn new(grid: HashGridLayout, density: MlpShape, colour: MlpShape) -> Self {
+        let mut at = grid.output_dim();
+        let mut density_out = Vec::new();
+        for i in 0..density.layers() - 1 {
+            density_out.push(at);
+            at += density.layer(i).1;
+        }
+        let colour_in = at;
+        density_out.push(colour_in);
+        at += colour.input();
+        let mut colour_out = Vec::new();
+        for i in 0..colour.layers() - 1 {
+            colour_out.push(at);
+            at += colour.layer(i).1;
+        }
+        let result = at;
+        colour_out.push(result + 1);
+        Self { grid, density, colour, density_out, colour_out, colour_in, result, stride: result + 4 }
+    }
+
+    /// Number of MLP weights.
+    pub fn mlp_params(&self) -> usize {
+        self.colour.end()
+    }
+
+    /// Floats saved per sample for the backward pass.
+    pub fn saved_per_sample(&self) -> usize {
+        self.stride
+    }
+
+    /// Evaluates `σ, r, g, b` (`S×4`) at `positions` (`S×3`, in `[0,1]`) seen along unit
+    /// `directions` (`S×3`). With `saved` (`S×`[`Self::saved_per_sample`]) it keeps the
+    /// activations that [`Self::backward`] needs.
+    pub fn forward(
+        &self,
+        positions: &[f32],
+        directions: &[f32],
+        table: &[f32],
+        mlp: &[f32],
+        out: &mut [f32],
+        saved: Option<&mut [f32]>,
+    ) {
+        let s = positions.len() / 3;
+        assert_eq!(directions.len(), s * 3, "one direction per position");
+        assert_eq!(out.len(), s * 4, "output is S×4");
+        assert_eq!(mlp.len(), self.mlp_params(), "MLP weights have the wrong size");
+        let stride = self.stride;
+        let run = |pos: &[f32], dir: &[f32], out: &mut [f32], act: &mut [f32]| {
+            let n = pos.len() / 3;
+            for i in 0..n {
+                let row = &mut act[i * stride..(i + 1) * stride];
+                self.grid.encode_point([pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]], table, row);
+                let sh = &mut row[self.colour_in + self.density.output()..][..SH_COEFFICIENTS];
+                sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
+            }
+            self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n);
+            self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n);
+            for i in 0..n {
+                let row = &mut act[i * stride..(i + 1) * stride];
+                row[self.result] = row[self.colour_in].min(MAX_LOG_DENSITY).exp();
+                for c in 1..4 {
+                    row[self.result + c] = sigmoid(row[self.result + c]);
+                }
+                out[4 * i..4 * i + 4].copy_from_slice(&row[self.result..self.result + 4]);
+            }
+        };
+        match saved {
+            Some(saved) => {
+                assert_eq!(saved.len(), s * stride, "saved activations are S×{stride}");
+                saved
+                    .par_chunks_mut(CHUNK * stride)
+                    .zip(out.par_chunks_mut(CHUNK * 4))
+                    .zip(positions.par_chunks(CHUNK * 3).zip(directions.par_chunks(CHUNK * 3)))
+                    .for_each(|((act, out), (pos, dir))| run(pos, dir, out, act));
+            }
+            None => out
+                .par_chunks_mut(CHUNK * 4)
+                .zip(positions.par_chunks(CHUNK * 3).zip(directions.par_chunks(CHUNK * 3)))
+                .for_each_init(|| vec![0.0; CHUNK * stride], |act, (out, (pos, dir))| run(pos, dir, out, act)),
+        }
+    }
+
+    /// Density `σ` only (`S`), for the occupancy grid: no colour MLP.
+    pub fn density(&self, positions: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32]) {
+        assert_eq!(out.len(), positions.len() / 3, "one density per position");
+        let stride = self.stride;
+        out.par_chunks_mut(CHUNK).zip(positions.par_chunks(CHUNK * 3)).for_each_init(
+            || vec![0.0; CHUNK * stride],
+            |act, (out, pos)| {
+                let n = out.len();
+                for i in 0..n {
+                    let row = &mut act[i * stride..(i + 1) * stride];
+                    self.grid.encode_point([pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]], table, row);
+                }
+                self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n);
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = act[i * stride + self.colour_in].min(MAX_LOG_DENSITY).exp();
+                }
+            },
+        );
+    }
+
+    /// Runs one MLP on `n` saved rows: input at column `input`, layer `i`'s output at
+    /// `outputs[i]`; ReLU on hidden layers, the last layer linear.
+    #[allow(unsafe_code)] // interleaved input/output columns of one buffer: see the SAFETY note
+    fn mlp_forward(&self, shape: &MlpShape, input: usize, outputs: &[usize], w: &[f32], act: &mut [f32], n: usize) {
+        let stride = self.stride;
+        let mut from = input;
+        for (l, &to) in outputs.iter().enumerate() {
+            let (k, m, off) = shape.layer(l);
+            assert!(n == 0 || (n - 1) * stride + (from + k).max(to + m) <= act.len(), "rows out of bounds");
+            assert!(from + k <= to || to + m <= from, "layer input and output overlap");
+            let weights = &w[off..off + k * m];
+            let base = act.as_mut_ptr();
+            // SAFETY: in bounds by the asserts; within each row the input columns
+            // [from, from+k) and output columns [to, to+m) are disjoint, so gemm never writes
+            // an element it reads. Both pointers derive from the one `&mut act`.
+            unsafe {
+                matmul_raw(n, m, k, (base.add(from), stride, 1), (weights.as_ptr(), m, 1), base.add(to), stride, false);
+            }
+            let tail = &mut act[to..];
+            if l + 1 < outputs.len() {
+                for i in 0..n {
+                    for v in &mut tail[i * stride..i * stride + m] {
+                        *v = v.max(0.0);
+                    }
+                }
+            }
+            from = to;
+        }
+    }
+
+    /// Accumulates `∂loss/∂table` and `∂loss/∂mlp` (zeroed by the caller) from
+    /// `∂loss/∂out` (`S×4`), using the activations saved by [`Self::forward`].
+    pub fn backward(
+        &self,
+        positions: &[f32],
+        mlp: &[f32],
+        saved: &[f32],
+        grad_out: &[f32],
+        grad_table: &mut [f32],
+        grad_mlp: &mut [f32],
+    ) {
+        let s = positions.len() / 3;
+        let stride = self.stride;
+        assert_eq!(saved.len(), s * stride, "saved activations do not match the positions");
+        assert_eq!(grad_out.len(), s * 4, "output gradient is S×4");
+        assert_eq!(grad_mlp.len(), self.mlp_params(), "MLP gradient has the wrong size");
+        let enc = self.grid.output_dim();
+        let mut grad_enc = vec![0.0f32; s * enc];
+        let wide = self.widest();
+        let summed = grad_enc
+            .par_chunks_mut(CHUNK * enc)
+            .zip(saved.par_chunks(CHUNK * stride).zip(grad_out.par_chunks(CHUNK * 4)))
+            .fold(
+                || (vec![0.0f32; self.mlp_params()], vec![0.0f32; CHUNK * wide], vec![0.0f32; CHUNK * wide]),
+                |(mut gw, mut ga, mut gb), (genc, (act, gout))| {
+                    self.backward_chunk(mlp, act, gout, genc, &mut gw, &mut ga, &mut gb);
+                    (gw, ga, gb)
+                },
+            )
+            .map(|(gw, _, _)| gw)
+            .reduce_with(|mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                a
+            });
+        if let Some(gw) = summed {
+            grad_mlp.iter_mut().zip(&gw).for_each(|(d, g)| *d += g);
+        }
+        self.grid.backward(positions, &grad_enc, grad_table);
+    }
+
+    fn widest(&self) -> usize {
+        let mut w = self.grid.output_dim().max(self.colour.input()).max(4);
+        for shape in [&self.density, &self.colour] {
+            for l in 0..shape.layers() {
+                w = w.max(shape.layer(l).1);
+            }
+        }
+        w
+    }
+
+    /// One chunk of the backward pass: from `∂/∂(σ, rgb)` down to `∂/∂encoding`, adding the
+    /// weight gradients to `gw`. `ga`/`gb` are scratch blocks of `CHUNK × widest` floats.
+    #[allow(clippy::too_many_arguments)]
+    fn backward_chunk(
+        &self,
+        w: &[f32],
+        act: &[f32],
+        gout: &[f32],
+        genc: &mut [f32],
+        gw: &mut [f32],
+        ga: &mut [f32],
+        gb: &mut [f32],
+    ) {
+        let stride = self.stride;
+        let n = gout.len() / 4;
+        // Colour: ∂/∂logit = ∂/∂rgb · s(1−s); ga holds the gradient of the current layer's output.
+        for i in 0..n {
+            for c in 0..3 {
+                let s = act[i * stride + self.result + 1 + c];
+                ga[i * 3 + c] = gout[i * 4 + 1 + c] * s * (1.0 - s);
+            }
+        }
+        let gin = self.mlp_backward(&self.colour, self.colour_in, &self.colour_out, w, act, n, gw, ga, gb);
+        // ∂/∂(geometry features) is the first part of ∂/∂(colour input); add σ's own path.
+        let g = self.density.output();
+        let cin = self.colour.input();
+        let (grad_colour_in, other) = if gin { (&mut *gb, &mut *ga) } else { (&mut *ga, &mut *gb) };
+        for i in 0..n {
+            let raw = act[i * stride + self.colour_in];
+            let dexp = raw.clamp(-MAX_LOG_DENSITY, MAX_LOG_DENSITY).exp();
+            other[i * g..(i + 1) * g].copy_from_slice(&grad_colour_in[i * cin..i * cin + g]);
+            other[i * g] += gout[i * 4] * dexp;
+        }
+        let gin = self.mlp_backward(&self.density, 0, &self.density_out, w, act, n, gw, other, grad_colour_in);
+        let grad_enc = if gin { &*grad_colour_in } else { &*other };
+        let e = self.grid.output_dim();
+        genc[..n * e].copy_from_slice(&grad_enc[..n * e]);
+    }
+
+    /// Backward through one MLP for `n` rows, adding the weight gradients to `gw`. `g` holds
+    /// `∂/∂output` (rows packed at the output width); `spare` is scratch. Returns whether
+    /// `∂/∂input` (packed at the input width) ended in `spare` (`true`) or in `g` (`false`).
+    #[allow(clippy::too_many_arguments)]
+    fn mlp_backward(
+        &self,
+        shape: &MlpShape,
+        input: usize,
+        outputs: &[usize],
+        w: &[f32],
+        act: &[f32],
+        n: usize,
+        gw: &mut [f32],
+        g: &mut [f32],
+        spare: &mut [f32],
+    ) -> bool {
+        let stride = self.stride;
+        let (mut cur, mut next) = (g, spare);
+        let mut swapped = false;
+        for l in (0..shape.layers()).rev() {
+            let (k, m, off) = shape.layer(l);
+            let from = if l == 0 { input } else { outputs[l - 1] };
+            // ∂W += Xᵀ·∂Y
+            let x_t = View::transposed(&act[from..], stride);
+            matmul(k, m, n, x_t, View::rows(cur, m), &mut gw[off..off + k * m], m, true);
+            // ∂X = ∂Y·Wᵀ, then back through the ReLU that produced X (hidden layers only).
+            let w_t = View::transposed(&w[off..off + k * m], m);
+            matmul(n, k, m, View::rows(cur, m), w_t, next, k, false);
+            if l > 0 {
+                for i in 0..n {
+                    let x = &act[i * stride + from..i * stride + from + k];
+                    for (d, &v) in next[i * k..(i + 1) * k].iter_mut().zip(x) {
+                        if v <= 0.0 {
+                            *d = 0.0;
+                        }
+                    }
+                }
+            }
+            std::mem::swap(&mut cur, &mut next);
+            swapped = !swapped;
+        }
+        swapped
+    }
+}
+
+#[inline]
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lucid_scene::sampling::Rng;
+
+    pub(crate) fn tiny_config() -> FieldConfig {
+        FieldConfig {
+            grid: HashGridConfig {
+                levels: 2,
+                features_per_level: 2,
+                log2_table_size: 6,
+                base_resolution: 2.0,
+                finest_resolution: 6.0,
+            },
+            hidden: 8,
+            geometry_features: 4,
+            density_hidden_layers: 1,
+            colour_hidden_layers: 2,
+        }
+    }
+
+    struct Case {
+        layout: FieldLayout,
+        pos: Vec<f32>,
+        dir: Vec<f32>,
+        table: Vec<f32>,
+        mlp: Vec<f32>,
+        weights: Vec<f32>,
+    }
+
+    fn case(seed: u64) -> Case {
+        let layout = tiny_config().layout();
+        let mut rng = Rng::new(seed, 0);
+        let s = 9;
+        let pos: Vec<f32> = (0..3 * s).map(|_| rng.uniform()).collect();
+        let dir: Vec<f32> = (0..s)
+            .flat_map(|_| {
+                let v = [rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5];
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                v.map(|x| x / n)
+            })
+            .collect();
+        let table = (0..layout.grid.entries * layout.grid.features).map(|_| 2.0 * rng.uniform() - 1.0).collect();
+        let mlp = (0..layout.mlp_params()).map(|_| rng.uniform() - 0.5).collect();
+        let weights = (0..4 * s).map(|_| rng.uniform() - 0.5).collect();
+        Case { layout, pos, dir, table, mlp, weights }
+    }
+
+    fn loss(c: &Case, table: &[f32], mlp: &[f32]) -> f64 {
+        let mut out = vec![0.0; c.weights.len()];
+        c.layout.forward(&c.pos, &c.dir, table, mlp, &mut out, None);
+        out.iter().zip(&c.weights).map(|(a, b)| *a as f64 * *b as f64).sum()
+    }
+
+    #[test]
+    fn saved_and_unsaved_forwards_agree_and_density_matches() {
+        let c = case(1);
+        let s = c.pos.len() / 3;
+        let (mut a, mut b) = (vec![0.0; 4 * s], vec![0.0; 4 * s]);
+        let mut saved = vec![0.0; s * c.layout.saved_per_sample()];
+        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut a, None);
+        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut b, Some(&mut saved));
+        assert_eq!(a, b);
+        let mut sigma = vec![0.0; s];
+        c.layout.density(&c.pos, &c.table, &c.mlp, &mut sigma);
+        for i in 0..s {
+            assert_eq!(sigma[i], a[4 * i]);
+            assert!(a[4 * i] > 0.0 && (0.0..=1.0).contains(&a[4 * i + 1]));
+        }
+    }
+
+    #[test]
+    fn backward_matches_finite_differences() {
+        for seed in [2, 3] {
+            let c = case(seed);
+            let s = c.pos.len() / 3;
+            let mut out = vec![0.0; 4 * s];
+            let mut saved = vec![0.0; s * c.layout.saved_per_sample()];
+            c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
+            let mut gt = vec![0.0; c.table.len()];
+            let mut gm = vec![0.0; c.mlp.len()];
+            c.layout.backward(&c.pos, &c.mlp, &saved, &c.weights, &mut gt, &mut gm);
+            let eps = 1e-3f32;
+            let base = loss(&c, &c.table, &c.mlp);
+            let mut kinks = 0;
+            let mut check = |name: &str, i: usize, analytic: f32, plus: f64, minus: f64| {
+                // A ReLU switching inside [−ε, ε] makes the loss non-differentiable there;
+                // one-sided slopes that disagree reveal it, and such points are skipped.
+                let (right, left) = ((plus - base) / eps as f64, (base - minus) / eps as f64);
+                if (right - left).abs() > 1e-2 * (1.0 + right.abs()) {
+                    kinks += 1;
+                    return;
+                }
+                let fd = (plus - minus) / (2.0 * eps as f64);
+                // f32 forward passes: about 1e-3 relative noise in a central difference of 1e-3.
+                assert!((fd - analytic as f64).abs() < 5e-3 * (1.0 + fd.abs()), "{name}[{i}]: fd {fd} vs {analytic}");
+            };
+            for i in 0..c.mlp.len() {
+                let (mut p, mut m) = (c.mlp.clone(), c.mlp.clone());
+                p[i] += eps;
+                m[i] -= eps;
+                check("mlp", i, gm[i], loss(&c, &c.table, &p), loss(&c, &c.table, &m));
+            }
+            let touched: Vec<usize> = (0..c.table.len()).filter(|&i| gt[i] != 0.0).collect();
+            assert!(touched.len() > 20, "the samples reach many table entries");
+            for &i in &touched {
+                let (mut p, mut m) = (c.table.clone(), c.table.clone());
+                p[i] += eps;
+                m[i] -= eps;
+                check("table", i, gt[i], loss(&c, &p, &c.mlp), loss(&c, &m, &c.mlp));
+            }
+            assert!(kinks <= 3, "{kinks} parameters sit on a ReLU kink: the test case is degenerate");
+        }
+    }
+}

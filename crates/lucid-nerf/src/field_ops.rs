@@ -1,0 +1,419 @@
+//! The fused radiance field and the compositing as burn backend operations.
+//!
+//! As with [`crate::kernels`], the flex CPU backend runs the slice kernels of
+//! [`crate::field`] and [`crate::render::composite`] on the tensors' own storage; other
+//! backends use the default bodies (host round trip) until they get kernels of their own.
+//! On the autodiff backend the forwards register backward steps: the field's gives
+//! `∂loss/∂table` and `∂loss/∂mlp` from the activations it saved; the compositing's gives
+//! `∂loss/∂(σ, rgb)`. Positions, directions and sample spacing are constants.
+
+#![cfg_attr(feature = "ndarray", allow(deprecated))]
+
+use std::sync::Arc;
+
+use burn::backend::autodiff::checkpoint::{base::Checkpointer, strategy::CheckpointStrategy};
+use burn::backend::autodiff::grads::Gradients;
+use burn::backend::autodiff::ops::{Backward, Ops, OpsKind, unary};
+use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extension, tensor::FloatTensor};
+use burn::tensor::{Tensor, TensorData};
+
+use crate::field::FieldConfig;
+use crate::render::composite::{PackedSamples, RAY_OUTPUTS, composite_backward, composite_forward};
+
+/// Compositing parameters that travel with the op.
+#[derive(Clone, Debug)]
+pub struct CompositeArgs {
+    /// The packed samples (ray offsets, distances, spacing).
+    pub samples: Arc<PackedSamples>,
+    /// Rays stop once transmittance falls below this.
+    pub min_transmittance: f32,
+}
+
+/// The NeRF field and compositing as backend operations.
+#[backend_extension(
+    Flex: cfg(feature = "flex"),
+    NdArray: cfg(feature = "ndarray"),
+    Cube: cfg(feature = "wgpu"),
+    Autodiff,
+)]
+pub trait NerfOps: Backend {
+    /// `σ, r, g, b` (`S×4`) at `positions` (`S×3` in `[0,1]`) along unit `directions` (`S×3`).
+    fn field_forward(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        field_host::<Self>(positions, directions, table, mlp, config, false).0
+    }
+
+    /// As [`Self::field_forward`], also returning the activations the backward needs.
+    fn field_forward_saving(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let (out, saved) = field_host::<Self>(positions, directions, table, mlp, config, true);
+        (out, saved.expect("saved activations"))
+    }
+
+    /// `(∂loss/∂table, ∂loss/∂mlp)` from `∂loss/∂out`.
+    fn field_backward(
+        positions: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        saved: FloatTensor<Self>,
+        grad_out: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let device = positions.device();
+        let layout = config.layout();
+        let mut gt = vec![0.0; layout.grid.entries * layout.grid.features];
+        let mut gm = vec![0.0; layout.mlp_params()];
+        let (pos, mlp, saved, grad) =
+            (to_host::<Self>(positions), to_host::<Self>(mlp), to_host::<Self>(saved), to_host::<Self>(grad_out));
+        layout.backward(&pos, &mlp, &saved, &grad, &mut gt, &mut gm);
+        let gt = Self::float_from_data(TensorData::new(gt, [layout.grid.entries, layout.grid.features]), &device);
+        let gm = Self::float_from_data(TensorData::new(gm, [layout.mlp_params()]), &device);
+        (gt, gm)
+    }
+
+    /// Density only (`S`), for the occupancy grid.
+    fn field_density(
+        positions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        let device = positions.device();
+        let pos = to_host::<Self>(positions);
+        let mut out = vec![0.0; pos.len() / 3];
+        config.layout().density(&pos, &to_host::<Self>(table), &to_host::<Self>(mlp), &mut out);
+        let n = out.len();
+        Self::float_from_data(TensorData::new(out, [n]), &device)
+    }
+
+    /// Composites `raw` (`S×4`) into `R×5` (`r, g, b, opacity, depth`).
+    fn composite(raw: FloatTensor<Self>, args: CompositeArgs) -> FloatTensor<Self> {
+        let device = raw.device();
+        let raw = to_host::<Self>(raw);
+        let mut out = vec![0.0; args.samples.rays() * RAY_OUTPUTS];
+        composite_forward(&args.samples, &raw, args.min_transmittance, &mut out);
+        Self::float_from_data(TensorData::new(out, [args.samples.rays(), RAY_OUTPUTS]), &device)
+    }
+
+    /// `∂loss/∂raw` from `∂loss/∂out` and the forward's `out`.
+    fn composite_grad(
+        raw: FloatTensor<Self>,
+        out: FloatTensor<Self>,
+        grad_out: FloatTensor<Self>,
+        args: CompositeArgs,
+    ) -> FloatTensor<Self> {
+        let device = raw.device();
+        let (raw, out, grad) = (to_host::<Self>(raw), to_host::<Self>(out), to_host::<Self>(grad_out));
+        let mut g = vec![0.0; raw.len()];
+        composite_backward(&args.samples, &raw, &out, &grad, args.min_transmittance, &mut g);
+        Self::float_from_data(TensorData::new(g, [raw.len() / 4, 4]), &device)
+    }
+}
+
+fn field_host<B: Backend>(
+    positions: FloatTensor<B>,
+    directions: FloatTensor<B>,
+    table: FloatTensor<B>,
+    mlp: FloatTensor<B>,
+    config: FieldConfig,
+    save: bool,
+) -> (FloatTensor<B>, Option<FloatTensor<B>>) {
+    let device = positions.device();
+    let layout = config.layout();
+    let (pos, dir) = (to_host::<B>(positions), to_host::<B>(directions));
+    let s = pos.len() / 3;
+    let mut out = vec![0.0; 4 * s];
+    let mut saved = save.then(|| vec![0.0; s * layout.saved_per_sample()]);
+    layout.forward(&pos, &dir, &to_host::<B>(table), &to_host::<B>(mlp), &mut out, saved.as_deref_mut());
+    let out = B::float_from_data(TensorData::new(out, [s, 4]), &device);
+    let saved = saved.map(|v| B::float_from_data(TensorData::new(v, [s, layout.saved_per_sample()]), &device));
+    (out, saved)
+}
+
+/// Reads a float tensor to host memory as `f32`.
+fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
+    let data = burn::tensor::try_read_sync(B::float_into_data(tensor))
+        .expect("a synchronous read is possible")
+        .expect("tensor data is readable");
+    data.try_into_vec_as::<f32>().expect("float data converts to f32")
+}
+
+#[cfg(feature = "flex")]
+mod flex_impl {
+    use std::borrow::Cow;
+
+    use burn::backend::Flex;
+    use burn::backend::flex::FlexTensor;
+    use burn::tensor::{DType, TensorData};
+
+    use super::{CompositeArgs, FieldConfig, NerfOps};
+    use crate::render::composite::{RAY_OUTPUTS, composite_backward, composite_forward};
+
+    /// The tensor's `f32` values in row-major order, borrowed when already contiguous.
+    fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
+        assert_eq!(t.dtype(), DType::F32, "NeRF kernels work on f32 tensors");
+        match t.as_slice::<f32>() {
+            Some(s) => Cow::Borrowed(s),
+            None => Cow::Owned(t.to_contiguous().as_slice::<f32>().expect("contiguous").to_vec()),
+        }
+    }
+
+    fn tensor<const N: usize>(v: Vec<f32>, shape: [usize; N]) -> FlexTensor {
+        FlexTensor::from_data(TensorData::new(v, shape))
+    }
+
+    impl NerfOps for Flex {
+        fn field_forward(
+            positions: FlexTensor,
+            directions: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> FlexTensor {
+            let layout = config.layout();
+            let pos = values(&positions);
+            let s = pos.len() / 3;
+            let mut out = vec![0.0; 4 * s];
+            layout.forward(&pos, &values(&directions), &values(&table), &values(&mlp), &mut out, None);
+            tensor(out, [s, 4])
+        }
+
+        fn field_forward_saving(
+            positions: FlexTensor,
+            directions: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> (FlexTensor, FlexTensor) {
+            let layout = config.layout();
+            let pos = values(&positions);
+            let s = pos.len() / 3;
+            let mut out = vec![0.0; 4 * s];
+            let mut saved = vec![0.0; s * layout.saved_per_sample()];
+            layout.forward(&pos, &values(&directions), &values(&table), &values(&mlp), &mut out, Some(&mut saved));
+            (tensor(out, [s, 4]), tensor(saved, [s, layout.saved_per_sample()]))
+        }
+
+        fn field_backward(
+            positions: FlexTensor,
+            mlp: FlexTensor,
+            saved: FlexTensor,
+            grad_out: FlexTensor,
+            config: FieldConfig,
+        ) -> (FlexTensor, FlexTensor) {
+            let layout = config.layout();
+            let mut gt = vec![0.0; layout.grid.entries * layout.grid.features];
+            let mut gm = vec![0.0; layout.mlp_params()];
+            layout.backward(&values(&positions), &values(&mlp), &values(&saved), &values(&grad_out), &mut gt, &mut gm);
+            (tensor(gt, [layout.grid.entries, layout.grid.features]), tensor(gm, [layout.mlp_params()]))
+        }
+
+        fn field_density(positions: FlexTensor, table: FlexTensor, mlp: FlexTensor, config: FieldConfig) -> FlexTensor {
+            let pos = values(&positions);
+            let mut out = vec![0.0; pos.len() / 3];
+            config.layout().density(&pos, &values(&table), &values(&mlp), &mut out);
+            let n = out.len();
+            tensor(out, [n])
+        }
+
+        fn composite(raw: FlexTensor, args: CompositeArgs) -> FlexTensor {
+            let mut out = vec![0.0; args.samples.rays() * RAY_OUTPUTS];
+            composite_forward(&args.samples, &values(&raw), args.min_transmittance, &mut out);
+            tensor(out, [args.samples.rays(), RAY_OUTPUTS])
+        }
+
+        fn composite_grad(raw: FlexTensor, out: FlexTensor, grad_out: FlexTensor, args: CompositeArgs) -> FlexTensor {
+            let raw = values(&raw);
+            let mut g = vec![0.0; raw.len()];
+            composite_backward(&args.samples, &raw, &values(&out), &values(&grad_out), args.min_transmittance, &mut g);
+            tensor(g, [raw.len() / 4, 4])
+        }
+    }
+}
+
+#[cfg(feature = "ndarray")]
+#[allow(deprecated)]
+impl NerfOps for burn::backend::NdArray {}
+
+#[cfg(feature = "wgpu")]
+impl NerfOps for burn::backend::Cube {}
+
+/// A backward step with nothing to propagate (for ops whose inputs are all constants).
+#[derive(Debug)]
+struct Constant;
+
+impl<B: Backend> Backward<B, 0> for Constant {
+    type State = ();
+
+    fn backward(self, _ops: Ops<(), 0>, _grads: &mut Gradients, _checkpointer: &mut Checkpointer) {}
+}
+
+fn constant<B: Backend, C: CheckpointStrategy>(t: FloatTensor<B>) -> FloatTensor<Autodiff<B, C>> {
+    match Constant.prepare::<C>([]).compute_bound().stateful() {
+        OpsKind::Tracked(prep) => prep.finish((), t),
+        OpsKind::UnTracked(prep) => prep.finish(t),
+    }
+}
+
+impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
+    fn field_forward(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        #[derive(Debug)]
+        struct FieldBackward;
+
+        impl<B: Backend + NerfOps> Backward<B, 2> for FieldBackward {
+            type State = (FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FieldConfig);
+
+            fn backward(self, ops: Ops<Self::State, 2>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
+                let (positions, mlp, saved, config) = ops.state;
+                let grad_out = grads.consume::<B>(&ops.node);
+                let (gt, gm) = B::field_backward(positions, mlp, saved, grad_out, config);
+                let [table_node, mlp_node] = ops.parents;
+                if let Some(node) = table_node {
+                    grads.register::<B>(node.id, gt);
+                }
+                if let Some(node) = mlp_node {
+                    grads.register::<B>(node.id, gm);
+                }
+            }
+        }
+
+        let (table_node, mlp_node) = (table.node(), mlp.node());
+        let (positions, directions) = (positions.into_primitive(), directions.into_primitive());
+        let (table, mlp) = (table.into_primitive(), mlp.into_primitive());
+        match FieldBackward.prepare::<C>([table_node, mlp_node]).compute_bound().stateful() {
+            OpsKind::Tracked(prep) => {
+                let (out, saved) = B::field_forward_saving(positions.clone(), directions, table, mlp.clone(), config);
+                prep.finish((positions, mlp, saved, config), out)
+            }
+            OpsKind::UnTracked(prep) => prep.finish(B::field_forward(positions, directions, table, mlp, config)),
+        }
+    }
+
+    fn field_forward_saving(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let (out, saved) = B::field_forward_saving(
+            positions.into_primitive(),
+            directions.into_primitive(),
+            table.into_primitive(),
+            mlp.into_primitive(),
+            config,
+        );
+        (constant::<B, C>(out), constant::<B, C>(saved))
+    }
+
+    fn field_backward(
+        positions: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        saved: FloatTensor<Self>,
+        grad_out: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        // Second derivatives are not needed by any trainer: the results are constants.
+        let (gt, gm) = B::field_backward(
+            positions.into_primitive(),
+            mlp.into_primitive(),
+            saved.into_primitive(),
+            grad_out.into_primitive(),
+            config,
+        );
+        (constant::<B, C>(gt), constant::<B, C>(gm))
+    }
+
+    fn field_density(
+        positions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        let out = B::field_density(positions.into_primitive(), table.into_primitive(), mlp.into_primitive(), config);
+        constant::<B, C>(out)
+    }
+
+    fn composite(raw: FloatTensor<Self>, args: CompositeArgs) -> FloatTensor<Self> {
+        #[derive(Debug)]
+        struct CompositeBackward;
+
+        impl<B: Backend + NerfOps> Backward<B, 1> for CompositeBackward {
+            type State = (FloatTensor<B>, FloatTensor<B>, CompositeArgs);
+
+            fn backward(self, ops: Ops<Self::State, 1>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
+                let (raw, out, args) = ops.state;
+                unary::<B, _>(ops.parents, ops.node, grads, |grad| B::composite_grad(raw, out, grad, args));
+            }
+        }
+
+        let raw_node = raw.node();
+        let raw = raw.into_primitive();
+        let out = B::composite(raw.clone(), args.clone());
+        match CompositeBackward.prepare::<C>([raw_node]).compute_bound().stateful() {
+            OpsKind::Tracked(prep) => prep.finish((raw, out.clone(), args), out),
+            OpsKind::UnTracked(prep) => prep.finish(out),
+        }
+    }
+
+    fn composite_grad(
+        raw: FloatTensor<Self>,
+        out: FloatTensor<Self>,
+        grad_out: FloatTensor<Self>,
+        args: CompositeArgs,
+    ) -> FloatTensor<Self> {
+        let g = B::composite_grad(raw.into_primitive(), out.into_primitive(), grad_out.into_primitive(), args);
+        constant::<B, C>(g)
+    }
+}
+
+/// Evaluates the field: `S×4` (`σ, r, g, b`), differentiable with respect to `table` and `mlp`.
+pub fn field(
+    positions: Tensor<2>,
+    directions: Tensor<2>,
+    table: Tensor<2>,
+    mlp: Tensor<1>,
+    config: FieldConfig,
+) -> Tensor<2> {
+    let out = <Dispatch as NerfOps>::field_forward(
+        positions.into_dispatch(),
+        directions.into_dispatch(),
+        table.into_dispatch(),
+        mlp.into_dispatch(),
+        config,
+    );
+    Tensor::from_dispatch(out)
+}
+
+/// The field's density only (`S`), never tracked.
+pub fn field_density(positions: Tensor<2>, table: Tensor<2>, mlp: Tensor<1>, config: FieldConfig) -> Tensor<1> {
+    let out = <Dispatch as NerfOps>::field_density(
+        positions.into_dispatch(),
+        table.into_dispatch(),
+        mlp.into_dispatch(),
+        config,
+    );
+    Tensor::from_dispatch(out)
+}
+
+/// Composites `raw` (`S×4`) along packed rays into `R×5` (`r, g, b, opacity, depth`),
+/// differentiable with respect to `raw`.
+pub fn composite(raw: Tensor<2>, samples: Arc<PackedSamples>, min_transmittance: f32) -> Tensor<2> {
+    let out = <Dispatch as NerfOps>::composite(raw.into_dispatch(), CompositeArgs { samples, min_transmittance });
+    Tensor::from_dispatch(out)
+}

@@ -1,0 +1,183 @@
+//! The occupancy grid of instant-ngp: a coarse grid over the scene box holding an
+//! exponential moving average of the field's density per cell, and a bitfield of the cells
+//! worth sampling, so that ray marching skips empty space.
+//!
+//! Densities are stored as optical thickness over one reference step (`σ·Δ_ref`), so the
+//! threshold is dimensionless: a cell is occupied when its value exceeds
+//! `min(threshold, mean)`, the mean keeping a mostly transparent early field from culling
+//! everything.
+
+use glam::Vec3;
+
+/// The grid over an axis-aligned box.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccupancyGrid {
+    resolution: u32,
+    min: Vec3,
+    max: Vec3,
+    thickness: Vec<f32>,
+    bits: Vec<u64>,
+}
+
+impl OccupancyGrid {
+    /// A `resolution³` grid over `[min, max]` with every cell occupied and no density yet.
+    pub fn new(resolution: u32, min: Vec3, max: Vec3) -> Self {
+        assert!((1..=1024).contains(&resolution), "grid resolution must be in 1..=1024");
+        assert!(max.cmpgt(min).all(), "the box must have positive size");
+        let cells = (resolution as usize).pow(3);
+        Self { resolution, min, max, thickness: vec![0.0; cells], bits: vec![u64::MAX; cells.div_ceil(64)] }
+    }
+
+    /// Cells per axis.
+    pub fn resolution(&self) -> u32 {
+        self.resolution
+    }
+
+    /// The box corners.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.min, self.max)
+    }
+
+    /// Number of cells.
+    pub fn cells(&self) -> usize {
+        self.thickness.len()
+    }
+
+    /// The per-cell optical thickness estimates.
+    pub fn thickness(&self) -> &[f32] {
+        &self.thickness
+    }
+
+    /// The cell containing world point `p`, or `None` outside the box.
+    #[inline]
+    pub fn cell_at(&self, p: Vec3) -> Option<usize> {
+        let u = (p - self.min) / (self.max - self.min);
+        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
+            return None;
+        }
+        let r = self.resolution;
+        let c = (u * r as f32).as_uvec3().min(glam::UVec3::splat(r - 1));
+        Some(((c.z * r + c.y) * r + c.x) as usize)
+    }
+
+    /// Integer coordinates of cell `index`.
+    pub fn cell_coords(&self, index: usize) -> [u32; 3] {
+        let r = self.resolution as usize;
+        [(index % r) as u32, ((index / r) % r) as u32, (index / (r * r)) as u32]
+    }
+
+    /// World-space corners of cell `index`.
+    pub fn cell_bounds(&self, index: usize) -> (Vec3, Vec3) {
+        let c = self.cell_coords(index);
+        let size = (self.max - self.min) / self.resolution as f32;
+        let lo = self.min + Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * size;
+        (lo, lo + size)
+    }
+
+    /// Whether cell `index` may hold matter.
+    #[inline]
+    pub fn is_occupied(&self, index: usize) -> bool {
+        self.bits[index / 64] >> (index % 64) & 1 == 1
+    }
+
+    /// Fraction of cells marked occupied.
+    pub fn occupied_fraction(&self) -> f32 {
+        let ones: u64 = self.bits.iter().map(|b| b.count_ones() as u64).sum();
+        ones as f32 / self.cells() as f32
+    }
+
+    /// Indices of the occupied cells.
+    pub fn occupied_cells(&self) -> Vec<u32> {
+        (0..self.cells()).filter(|&i| self.is_occupied(i)).map(|i| i as u32).collect()
+    }
+
+    /// One update: every cell decays by `decay`, each `(cell, thickness)` observation raises
+    /// its cell to at least that value, and the bitfield is rebuilt with the threshold
+    /// `min(max_threshold, mean thickness)`. Returns the threshold used.
+    pub fn update(&mut self, observations: &[(u32, f32)], decay: f32, max_threshold: f32) -> f32 {
+        let mut fresh = vec![0f32; self.cells()];
+        for &(cell, value) in observations {
+            let slot = &mut fresh[cell as usize];
+            *slot = slot.max(value);
+        }
+        let mut sum = 0.0f64;
+        for (t, f) in self.thickness.iter_mut().zip(&fresh) {
+            *t = (*t * decay).max(*f);
+            sum += *t as f64;
+        }
+        let threshold = max_threshold.min((sum / self.cells() as f64) as f32);
+        self.rebuild_bits(threshold);
+        threshold
+    }
+
+    fn rebuild_bits(&mut self, threshold: f32) {
+        self.bits.iter_mut().for_each(|b| *b = 0);
+        for (i, &t) in self.thickness.iter().enumerate() {
+            if t > threshold {
+                self.bits[i / 64] |= 1 << (i % 64);
+            }
+        }
+    }
+
+    /// The raw state, for checkpoints: thickness per cell (the bitfield is recomputed).
+    pub fn from_parts(resolution: u32, min: Vec3, max: Vec3, thickness: Vec<f32>, bits: Vec<u64>) -> Option<Self> {
+        let cells = (resolution as usize).checked_pow(3)?;
+        (thickness.len() == cells && bits.len() == cells.div_ceil(64)).then_some(Self {
+            resolution,
+            min,
+            max,
+            thickness,
+            bits,
+        })
+    }
+
+    /// The bitfield words.
+    pub fn bits(&self) -> &[u64] {
+        &self.bits
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lucid_scene::sampling::Rng;
+
+    #[test]
+    fn cells_map_to_their_bounds() {
+        let g = OccupancyGrid::new(8, Vec3::splat(-1.0), Vec3::splat(1.0));
+        for i in [0, 7, 63, 100, 511] {
+            let (lo, hi) = g.cell_bounds(i);
+            assert_eq!(g.cell_at((lo + hi) * 0.5), Some(i));
+        }
+        assert_eq!(g.cell_at(Vec3::new(1.5, 0.0, 0.0)), None);
+        assert_eq!(g.cell_at(Vec3::splat(1.0)), Some(511), "the far faces belong to the last cells");
+    }
+
+    /// A sphere of dense matter in an empty box: after updates with one random sample per
+    /// cell, no cell whose sample was above threshold is culled, and most empty cells are.
+    #[test]
+    fn never_culls_a_cell_with_a_sample_above_threshold() {
+        let mut g = OccupancyGrid::new(16, Vec3::splat(-1.0), Vec3::splat(1.0));
+        let mut rng = Rng::new(5, 0);
+        let density = |p: Vec3| if p.length() < 0.5 { 50.0 } else { 1e-4 * (1.0 + p.x) };
+        let step = 2.0 * 3f32.sqrt() / 1024.0;
+        for _ in 0..4 {
+            let obs: Vec<(u32, f32)> = (0..g.cells())
+                .map(|i| {
+                    let (lo, hi) = g.cell_bounds(i);
+                    let p = lo + (hi - lo) * Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                    (i as u32, density(p) * step)
+                })
+                .collect();
+            let threshold = g.update(&obs, 0.95, 0.01);
+            for &(cell, value) in &obs {
+                if value > threshold {
+                    assert!(g.is_occupied(cell as usize), "cell {cell} with {value} > {threshold} was culled");
+                }
+            }
+        }
+        let frac = g.occupied_fraction();
+        let sphere_frac = 4.0 / 3.0 * std::f32::consts::PI * 0.125 / 8.0;
+        assert!(frac > sphere_frac * 0.8 && frac < sphere_frac * 2.0, "occupied {frac} vs sphere {sphere_frac}");
+    }
+}
