@@ -42,6 +42,84 @@ pub enum Command {
     /// Generate a dataset: render a scene (a built-in name or a .toml file) from a camera rig
     /// into the NeRF-synthetic layout.
     Gen(GenArgs),
+    /// Train a model on a dataset folder.
+    Train(TrainArgs),
+    /// Evaluate a checkpoint on a dataset split: renders, depth and error maps, PSNR/SSIM per
+    /// view and averaged, render time per view.
+    Eval(EvalArgs),
+}
+
+/// `lucid train`.
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// What to train.
+    #[command(subcommand)]
+    pub model: TrainModel,
+}
+
+/// The trainable models.
+#[derive(Debug, Subcommand)]
+pub enum TrainModel {
+    /// Hash-grid NeRF (instant-ngp style) with an occupancy grid.
+    Nerf(TrainNerfArgs),
+}
+
+/// `lucid train nerf`.
+#[derive(Debug, Args)]
+pub struct TrainNerfArgs {
+    /// Dataset folder (transforms_train.json, or transforms.json, and images).
+    pub dataset: PathBuf,
+    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, eval results.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Configuration file (configs/nerf/*.toml); defaults are used for missing keys.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Override any configuration key, e.g. `--set train.batch_samples=32768`
+    /// `--set field.grid.log2_table_size=17` (repeatable; TOML values).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Optimiser steps (train.steps).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Stop after this many seconds of training (train.time_limit).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Random seed (train.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Stop at this step and save, as if interrupted there: the learning-rate schedule
+    /// still spans all steps, and `--resume` continues (training in stages).
+    #[arg(long)]
+    pub until: Option<usize>,
+    /// Continue from OUTPUT/checkpoint.lucid (its configuration wins; --steps can extend it).
+    #[arg(long)]
+    pub resume: bool,
+    /// Skip the evaluation on the test split at the end.
+    #[arg(long)]
+    pub no_eval: bool,
+}
+
+/// `lucid eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// A checkpoint written by `lucid train`.
+    pub checkpoint: PathBuf,
+    /// The dataset folder to evaluate on.
+    pub dataset: PathBuf,
+    /// Which split.
+    #[arg(long, default_value = "test")]
+    pub split: String,
+    /// Output folder for renders, depth and error maps, and metrics.json (default: beside
+    /// the checkpoint, `eval_<split>`).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Evaluate only the first N views.
+    #[arg(long)]
+    pub limit: Option<usize>,
+    /// Print the results as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Camera rigs of `lucid gen`.

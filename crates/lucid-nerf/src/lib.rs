@@ -7,12 +7,19 @@
 //! `burn::tensor::Device`.
 
 pub mod backend;
+pub mod checkpoint;
+pub mod config;
+pub mod data;
 pub mod encoding;
+pub mod eval;
 pub mod field;
 pub mod field_ops;
 pub mod kernels;
+pub mod model;
 pub mod occupancy;
+pub mod profile;
 pub mod render;
+pub mod trainer;
 
 pub use encoding::hash_grid::{HashGridConfig, HashGridLayout, LevelLayout};
 pub use kernels::hash_grid_encode;

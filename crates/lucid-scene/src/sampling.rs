@@ -36,6 +36,11 @@ impl Rng {
         (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
     }
 
+    /// Uniform integer in `0..n` (Lemire's multiply-shift; `n` up to 2³²).
+    pub fn below(&mut self, n: usize) -> usize {
+        ((self.next_u32() as u64 * n as u64) >> 32) as usize
+    }
+
     /// Two uniforms.
     pub fn uniform2(&mut self) -> Vec2 {
         Vec2::new(self.uniform(), self.uniform())

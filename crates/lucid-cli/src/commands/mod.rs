@@ -3,12 +3,14 @@
 mod bench;
 mod convert;
 mod demo;
+mod eval;
 pub mod generate;
 mod info;
 mod metrics;
 mod refocus;
 mod render;
 mod rig_file;
+mod train;
 
 use anyhow::{Context, bail};
 
@@ -27,6 +29,8 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(args),
         Command::Gen(args) => generate::run(args, matches.subcommand_matches("gen").expect("gen was parsed")),
         Command::Refocus(args) => refocus::run(args),
+        Command::Train(args) => train::run(args),
+        Command::Eval(args) => eval::run(args),
     }
 }
 

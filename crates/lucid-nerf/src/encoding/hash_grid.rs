@@ -126,26 +126,34 @@ impl LevelLayout {
         }
     }
 
-    /// The 8 (row, weight) pairs of trilinear interpolation at `x ∈ [0,1]³` (clamped).
-    #[inline]
+    /// The 8 (row, weight) pairs of trilinear interpolation at `x ∈ [0,1]³` (clamped),
+    /// rows absolute in the table. Corner `c` is offset by `(c&1, c>>1&1, c>>2)`.
+    #[inline(always)]
     pub fn corners(&self, x: [f32; 3]) -> [(usize, f32); 8] {
-        let mut base = [0u32; 3];
-        let mut frac = [0f32; 3];
         let max_vertex = self.resolution - 2;
+        let mut base = [0u32; 3];
+        let mut w = [[0f32; 2]; 3];
         for a in 0..3 {
+            // p ≥ 0.5, so truncation is the floor (and avoids a libm call without SSE4.1).
             let p = x[a].clamp(0.0, 1.0) * self.scale + 0.5;
-            let f = p.floor();
-            base[a] = (f as u32).min(max_vertex);
-            frac[a] = p - base[a] as f32;
+            base[a] = (p as u32).min(max_vertex);
+            let f = p - base[a] as f32;
+            w[a] = [1.0 - f, f];
         }
-        std::array::from_fn(|c| {
-            let d = [(c & 1) as u32, ((c >> 1) & 1) as u32, ((c >> 2) & 1) as u32];
-            let mut w = 1.0;
-            for a in 0..3 {
-                w *= if d[a] == 1 { frac[a] } else { 1.0 - frac[a] };
-            }
-            (self.offset + self.index([base[0] + d[0], base[1] + d[1], base[2] + d[2]]), w)
-        })
+        let rows: [usize; 8] = if self.dense {
+            let r = self.resolution as usize;
+            let i0 = base[0] as usize + r * (base[1] as usize + r * base[2] as usize);
+            let (dy, dz) = (r, r * r);
+            [i0, i0 + 1, i0 + dy, i0 + dy + 1, i0 + dz, i0 + dz + 1, i0 + dz + dy, i0 + dz + dy + 1]
+        } else {
+            let mask = self.size - 1;
+            let hx = [base[0], base[0] + 1];
+            let hy = [base[1].wrapping_mul(2_654_435_761), (base[1] + 1).wrapping_mul(2_654_435_761)];
+            let hz = [base[2].wrapping_mul(805_459_861), (base[2] + 1).wrapping_mul(805_459_861)];
+            std::array::from_fn(|c| (hx[c & 1] ^ hy[(c >> 1) & 1] ^ hz[c >> 2]) as usize & mask)
+        };
+        let wxy = [w[0][0] * w[1][0], w[0][1] * w[1][0], w[0][0] * w[1][1], w[0][1] * w[1][1]];
+        std::array::from_fn(|c| (self.offset + rows[c], wxy[c & 3] * w[2][c >> 2]))
     }
 }
 
@@ -186,6 +194,20 @@ impl HashGridLayout {
     #[inline]
     pub fn encode_point(&self, p: [f32; 3], table: &[f32], out: &mut [f32]) {
         let f = self.features;
+        if f == 2 {
+            // The common case, unrolled: two features per row.
+            for (l, level) in self.levels.iter().enumerate() {
+                let (mut a0, mut a1) = (0.0, 0.0);
+                for (row, w) in level.corners(p) {
+                    let t = &table[2 * row..2 * row + 2];
+                    a0 += w * t[0];
+                    a1 += w * t[1];
+                }
+                out[2 * l] = a0;
+                out[2 * l + 1] = a1;
+            }
+            return;
+        }
         for (l, level) in self.levels.iter().enumerate() {
             let acc = &mut out[l * f..(l + 1) * f];
             acc.fill(0.0);

@@ -19,7 +19,10 @@ use mlp::{MlpShape, View, matmul, matmul_raw};
 const MAX_LOG_DENSITY: f32 = 15.0;
 
 /// Samples per parallel task: rows of every matrix product.
-const CHUNK: usize = 128;
+const CHUNK: usize = 256;
+
+/// Chunks per task of the backward pass (and per partial sum of the weight gradients).
+const GROUP_CHUNKS: usize = 8;
 
 /// Hyper-parameters of the field.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -253,25 +256,37 @@ impl FieldLayout {
         let enc = self.grid.output_dim();
         let mut grad_enc = vec![0.0f32; s * enc];
         let wide = self.widest();
-        let summed = grad_enc
-            .par_chunks_mut(CHUNK * enc)
-            .zip(saved.par_chunks(CHUNK * stride).zip(grad_out.par_chunks(CHUNK * 4)))
-            .fold(
-                || (vec![0.0f32; self.mlp_params()], vec![0.0f32; CHUNK * wide], vec![0.0f32; CHUNK * wide]),
-                |(mut gw, mut ga, mut gb), (genc, (act, gout))| {
+        // Weight gradients are summed per fixed group of chunks, then the groups in order: the
+        // same float additions whatever the thread count, so training is reproducible.
+        let group = CHUNK * GROUP_CHUNKS;
+        let partials: Vec<Vec<f32>> = grad_enc
+            .par_chunks_mut(group * enc)
+            .zip(saved.par_chunks(group * stride).zip(grad_out.par_chunks(group * 4)))
+            .map(|(genc, (act, gout))| {
+                let mut gw = vec![0.0f32; self.mlp_params()];
+                let (mut ga, mut gb) = (vec![0.0f32; CHUNK * wide], vec![0.0f32; CHUNK * wide]);
+                for ((genc, act), gout) in
+                    genc.chunks_mut(CHUNK * enc).zip(act.chunks(CHUNK * stride)).zip(gout.chunks(CHUNK * 4))
+                {
                     self.backward_chunk(mlp, act, gout, genc, &mut gw, &mut ga, &mut gb);
-                    (gw, ga, gb)
-                },
-            )
-            .map(|(gw, _, _)| gw)
-            .reduce_with(|mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                a
-            });
-        if let Some(gw) = summed {
+                }
+                gw
+            })
+            .collect();
+        for gw in partials {
             grad_mlp.iter_mut().zip(&gw).for_each(|(d, g)| *d += g);
         }
-        self.grid.backward(positions, &grad_enc, grad_table);
+        // Samples past a ray's early termination have an all-zero gradient; scattering their
+        // zeros into the table is wasted work (often half the batch), so compact them away.
+        let active: Vec<usize> = (0..s).filter(|&i| grad_out[4 * i..4 * i + 4].iter().any(|&g| g != 0.0)).collect();
+        if active.len() == s {
+            self.grid.backward(positions, &grad_enc, grad_table);
+        } else {
+            let pos: Vec<f32> = active.iter().flat_map(|&i| positions[3 * i..3 * i + 3].iter().copied()).collect();
+            let grad: Vec<f32> =
+                active.iter().flat_map(|&i| grad_enc[enc * i..enc * (i + 1)].iter().copied()).collect();
+            self.grid.backward(&pos, &grad, grad_table);
+        }
     }
 
     fn widest(&self) -> usize {

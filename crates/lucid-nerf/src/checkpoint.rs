@@ -1,0 +1,200 @@
+//! Checkpoints: one file holding everything to evaluate a model or continue training it.
+//!
+//! Layout: the magic `LUCIDCKP`, a little-endian `u32` format version, then length-prefixed
+//! (`u64`) sections: a JSON header (model kind, configuration, scene box, step, pixel
+//! angle), burn's record of the model parameters, burn's record of the optimiser state, and
+//! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`). Written to a
+//! temporary name and renamed, so a crash never leaves a torn file under the real name.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use burn::module::Module;
+use burn::store::ModuleRecord;
+use burn::tensor::{Bytes, Device};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::config::NerfConfig;
+use crate::model::NerfModel;
+use crate::occupancy::OccupancyGrid;
+use crate::trainer::{Trainer, optimizer};
+
+const MAGIC: &[u8; 8] = b"LUCIDCKP";
+const VERSION: u32 = 1;
+/// The kind this module reads and writes.
+pub const NERF_KIND: &str = "nerf";
+
+/// Why a checkpoint could not be read or written; each message names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// The OS refused.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Not a checkpoint, or one of another kind or version, or damaged.
+    #[error("{}: {reason}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// The JSON header.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CheckpointHeader {
+    /// `"nerf"` (other trainers write their own kinds).
+    pub kind: String,
+    /// The configuration the model was trained with.
+    pub config: NerfConfig,
+    /// Scene box.
+    pub bounds: [[f32; 3]; 2],
+    /// Steps taken.
+    pub step: usize,
+    /// Angular size of a training pixel.
+    pub pixel_angle: f32,
+    /// Rays per batch at the time of saving.
+    pub rays_per_batch: f32,
+    /// Training time so far, in seconds.
+    pub elapsed: f64,
+}
+
+/// Peeks at a checkpoint's kind without loading it.
+pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.into(), source })?;
+    let header: serde_json::Value = parse(path, &bytes)?.0;
+    Ok(header.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown").to_string())
+}
+
+fn invalid(path: &Path, reason: impl Into<String>) -> CheckpointError {
+    CheckpointError::Invalid { path: path.into(), reason: reason.into() }
+}
+
+/// Splits a checkpoint into its JSON header and the remaining sections.
+fn parse<'a, H: serde::de::DeserializeOwned>(
+    path: &Path,
+    bytes: &'a [u8],
+) -> Result<(H, Vec<&'a [u8]>), CheckpointError> {
+    if bytes.len() < 12 || &bytes[..8] != MAGIC {
+        return Err(invalid(path, "not a Lucid checkpoint (bad magic)"));
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(invalid(path, format!("checkpoint format version {version}, this build reads {VERSION}")));
+    }
+    let mut rest = &bytes[12..];
+    let mut sections = Vec::new();
+    while !rest.is_empty() {
+        if rest.len() < 8 {
+            return Err(invalid(path, "truncated (a section length is cut off)"));
+        }
+        let len = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes")) as usize;
+        if rest.len() - 8 < len {
+            return Err(invalid(
+                path,
+                format!("truncated (section {} needs {len} bytes, {} left)", sections.len(), rest.len() - 8),
+            ));
+        }
+        sections.push(&rest[8..8 + len]);
+        rest = &rest[8 + len..];
+    }
+    let Some((head, tail)) = sections.split_first() else {
+        return Err(invalid(path, "truncated (no header)"));
+    };
+    let header = serde_json::from_slice(head).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
+    Ok((header, tail.to_vec()))
+}
+
+/// Saves a trainer's full state to `path`.
+pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), CheckpointError> {
+    let io = |source| CheckpointError::Io { path: path.into(), source };
+    let (lo, hi) = trainer.grid.bounds();
+    let header = CheckpointHeader {
+        kind: NERF_KIND.into(),
+        config: trainer.config.clone(),
+        bounds: [lo.to_array(), hi.to_array()],
+        step: trainer.step,
+        pixel_angle: trainer.pixel_angle,
+        rays_per_batch: trainer.rays_per_batch,
+        elapsed,
+    };
+    let header = serde_json::to_vec_pretty(&header).expect("the header serialises");
+    let model = trainer.model.clone().into_record().into_bytes().map_err(|e| invalid(path, e.to_string()))?;
+    let optim = trainer.optimizer.into_bytes().map_err(|e| invalid(path, e.to_string()))?;
+    let thickness: Vec<u8> = trainer.grid.thickness().iter().flat_map(|v| v.to_le_bytes()).collect();
+    let bits: Vec<u8> = trainer.grid.bits().iter().flat_map(|v| v.to_le_bytes()).collect();
+    let tmp = path.with_file_name(format!(
+        ".{}.tmp-{}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("checkpoint"),
+        std::process::id()
+    ));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        f.write_all(MAGIC)?;
+        f.write_all(&VERSION.to_le_bytes())?;
+        for section in [&header[..], &model[..], &optim[..], &thickness[..], &bits[..]] {
+            f.write_all(&(section.len() as u64).to_le_bytes())?;
+            f.write_all(section)?;
+        }
+        f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io(e)
+    })
+}
+
+/// A loaded checkpoint.
+pub struct Loaded {
+    /// Its header.
+    pub header: CheckpointHeader,
+    /// The trainer state, on `device`.
+    pub trainer: Trainer,
+}
+
+/// Loads a NeRF checkpoint onto `device` (use the autodiff device to continue training).
+pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.into(), source })?;
+    let (value, sections): (serde_json::Value, _) = parse(path, &bytes)?;
+    let kind = value.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown");
+    if kind != NERF_KIND {
+        return Err(invalid(path, format!("a '{kind}' checkpoint, expected a '{NERF_KIND}' one")));
+    }
+    let header: CheckpointHeader =
+        serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
+    header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
+    let [model, optim, thickness, bits] = sections[..] else {
+        return Err(invalid(path, format!("expected 5 sections, found {}", sections.len() + 1)));
+    };
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))
+        .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
+    let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
+    let model = fresh.try_load_record(record).map_err(|e| invalid(path, format!("model parameters: {e}")))?;
+    let optimizer = optimizer(&header.config)
+        .from_bytes(Bytes::from_bytes_vec(optim.to_vec()))
+        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
+    let res = header.config.occupancy.resolution;
+    let thickness: Vec<f32> = thickness.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4"))).collect();
+    let bits: Vec<u64> = bits.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8"))).collect();
+    let [lo, hi] = header.bounds;
+    let grid = OccupancyGrid::from_parts(res, Vec3::from(lo), Vec3::from(hi), thickness, bits)
+        .ok_or_else(|| invalid(path, "occupancy grid does not match its resolution"))?;
+    let mut trainer = Trainer::resume(
+        header.config.clone(),
+        model,
+        Some(optimizer),
+        grid,
+        header.step,
+        header.pixel_angle,
+        device.clone(),
+    );
+    trainer.rays_per_batch = header.rays_per_batch;
+    Ok(Loaded { header, trainer })
+}

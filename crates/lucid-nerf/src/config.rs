@@ -1,0 +1,235 @@
+//! The NeRF configuration: model, sampling, occupancy grid and training schedule, read from
+//! TOML (`configs/nerf/*.toml`) with every field defaulted, and validated as a whole so that
+//! a bad value is reported with its key before any work starts.
+
+use serde::{Deserialize, Serialize};
+
+use crate::field::FieldConfig;
+use crate::render::march::MarchSettings;
+
+/// Everything a NeRF run needs.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NerfConfig {
+    /// The radiance field.
+    pub field: FieldConfig,
+    /// Ray marching.
+    pub march: MarchSettings,
+    /// The occupancy grid.
+    pub occupancy: OccupancyConfig,
+    /// The optimisation.
+    pub train: TrainConfig,
+}
+
+/// Occupancy-grid settings (instant-ngp's defaults).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OccupancyConfig {
+    /// Cells per axis.
+    pub resolution: u32,
+    /// Decay of the density moving average per update.
+    pub decay: f32,
+    /// Upper bound of the occupancy threshold (optical thickness over the smallest step).
+    pub threshold: f32,
+    /// Steps between updates.
+    pub update_every: usize,
+    /// Steps before the first update (every cell is sampled until then).
+    pub warmup_steps: usize,
+}
+
+impl Default for OccupancyConfig {
+    fn default() -> Self {
+        Self { resolution: 128, decay: 0.95, threshold: 0.01, update_every: 16, warmup_steps: 256 }
+    }
+}
+
+/// Background colour behind the scene.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Background {
+    /// White (the NeRF-synthetic evaluation convention).
+    White,
+    /// Black.
+    Black,
+    /// A random colour per ray and step (training only): the model cannot hide the
+    /// background in the scene, so it learns true transparency.
+    Random,
+}
+
+/// The training loss on colours.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Loss {
+    /// Squared error.
+    L2,
+    /// Huber with δ = 0.1 (robust to the path tracer's fireflies).
+    Huber,
+}
+
+/// The optimisation schedule.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// Optimiser steps.
+    pub steps: usize,
+    /// Stop after this many seconds of training even if steps remain (0: no limit).
+    pub time_limit: f64,
+    /// Samples per batch: the number of rays adapts to keep this many.
+    pub batch_samples: usize,
+    /// Rays of the first batch, before the adaptation has a measurement.
+    pub initial_rays: usize,
+    /// Adam learning rate of the grid and the MLPs.
+    pub learning_rate: f64,
+    /// Learning rate at the end of the run, as a fraction of the initial one
+    /// (exponential decay in between).
+    pub final_learning_rate: f64,
+    /// Adam β₁.
+    pub beta1: f32,
+    /// Adam β₂.
+    pub beta2: f32,
+    /// Adam ε.
+    pub epsilon: f32,
+    /// L2 weight decay on the MLP weights (not the grid).
+    pub weight_decay: f32,
+    /// The colour loss.
+    pub loss: Loss,
+    /// Background during training.
+    pub background: Background,
+    /// Background for evaluation and rendering.
+    pub eval_background: Background,
+    /// Rays stop once transmittance falls below this.
+    pub min_transmittance: f32,
+    /// Random seed (initialisation, pixel and jitter sampling).
+    pub seed: u64,
+    /// Steps between checkpoints (0: only at the end).
+    pub checkpoint_every: usize,
+    /// Steps between log lines and CSV rows.
+    pub log_every: usize,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self {
+            steps: 3000,
+            time_limit: 0.0,
+            batch_samples: 1 << 16,
+            initial_rays: 4096,
+            learning_rate: 1e-2,
+            final_learning_rate: 0.1,
+            beta1: 0.9,
+            beta2: 0.99,
+            epsilon: 1e-15,
+            weight_decay: 1e-6,
+            loss: Loss::Huber,
+            background: Background::Random,
+            eval_background: Background::White,
+            min_transmittance: 1e-4,
+            seed: 0,
+            checkpoint_every: 1000,
+            log_every: 50,
+        }
+    }
+}
+
+impl NerfConfig {
+    /// Parses TOML text; `origin` names the file in messages.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, String> {
+        let config: Self = toml::from_str(text).map_err(|e| format!("{origin}: {}", toml_error(text, &e)))?;
+        config.validate().map_err(|e| format!("{origin}: {e}"))?;
+        Ok(config)
+    }
+
+    /// Checks every value; the message names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        self.field.validate().map_err(|e| format!("field: {e}"))?;
+        self.march.validate().map_err(|e| format!("march: {e}"))?;
+        let o = &self.occupancy;
+        if !(8..=512).contains(&o.resolution) {
+            return Err(format!("occupancy.resolution must be in 8..=512, got {}", o.resolution));
+        }
+        if !(o.decay.is_finite() && (0.0..1.0).contains(&o.decay)) {
+            return Err(format!("occupancy.decay must be in [0, 1), got {}", o.decay));
+        }
+        if !(o.threshold.is_finite() && o.threshold >= 0.0) {
+            return Err(format!("occupancy.threshold must be zero or positive, got {}", o.threshold));
+        }
+        if o.update_every == 0 {
+            return Err("occupancy.update_every must be at least 1".into());
+        }
+        let t = &self.train;
+        if t.steps == 0 {
+            return Err("train.steps must be at least 1".into());
+        }
+        if !(t.time_limit.is_finite() && t.time_limit >= 0.0) {
+            return Err(format!("train.time_limit must be zero or positive, got {}", t.time_limit));
+        }
+        if !(1024..=1 << 22).contains(&t.batch_samples) {
+            return Err(format!("train.batch_samples must be in 1024..=4194304, got {}", t.batch_samples));
+        }
+        if !(1..=1 << 20).contains(&t.initial_rays) {
+            return Err(format!("train.initial_rays must be in 1..=1048576, got {}", t.initial_rays));
+        }
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("train.{name} must be a positive number, got {v}"))
+            }
+        };
+        positive("learning_rate", t.learning_rate)?;
+        positive("final_learning_rate", t.final_learning_rate)?;
+        positive("epsilon", t.epsilon as f64)?;
+        for (name, b) in [("beta1", t.beta1), ("beta2", t.beta2)] {
+            if !(b.is_finite() && (0.0..1.0).contains(&b)) {
+                return Err(format!("train.{name} must be in [0, 1), got {b}"));
+            }
+        }
+        if !(t.weight_decay.is_finite() && t.weight_decay >= 0.0) {
+            return Err(format!("train.weight_decay must be zero or positive, got {}", t.weight_decay));
+        }
+        if !(t.min_transmittance.is_finite() && (0.0..1.0).contains(&t.min_transmittance)) {
+            return Err(format!("train.min_transmittance must be in [0, 1), got {}", t.min_transmittance));
+        }
+        if t.eval_background == Background::Random {
+            return Err("train.eval_background must be white or black".into());
+        }
+        if t.log_every == 0 {
+            return Err("train.log_every must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// A TOML error on one line: the message and where it is.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().replace('\n', " ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            format!("line {line}: {message}")
+        }
+        None => message,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_round_trip_through_toml_and_validate() {
+        let c = NerfConfig::default();
+        let text = toml::to_string(&c).unwrap();
+        assert_eq!(NerfConfig::from_toml(&text, "x.toml").unwrap(), c);
+    }
+
+    #[test]
+    fn bad_values_name_their_key_and_file() {
+        let err = NerfConfig::from_toml("[train]\nlearning_rate = nan\n", "bad.toml").unwrap_err();
+        assert!(err.contains("bad.toml") && err.contains("train.learning_rate"), "{err}");
+        let err = NerfConfig::from_toml("[train]\nstepz = 3\n", "bad.toml").unwrap_err();
+        assert!(err.contains("bad.toml") && err.contains("stepz"), "{err}");
+        let err = NerfConfig::from_toml("[field.grid]\nlevels = 0\n", "g.toml").unwrap_err();
+        assert!(err.contains("levels"), "{err}");
+    }
+}

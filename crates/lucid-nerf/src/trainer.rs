@@ -1,0 +1,308 @@
+//! One training step at a time: sample pixels, march their rays through the occupancy grid
+//! to a fixed sample budget, evaluate and composite on the autodiff device, take burn's Adam
+//! step; every few steps refresh the occupancy grid from the field's density.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use burn::module::ParamGroup;
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer, decay::WeightDecayConfig};
+use burn::tensor::{Device, Tensor, TensorData};
+use glam::{Vec2, Vec3};
+use lucid_scene::camera::Camera;
+use lucid_scene::sampling::{Rng, mix};
+
+use crate::config::{Background, Loss, NerfConfig};
+use crate::data::ImageSet;
+use crate::field_ops;
+use crate::model::NerfModel;
+use crate::occupancy::OccupancyGrid;
+use crate::render::batch::march_rays;
+use crate::render::march::RayMarcher;
+use crate::render::view::ViewRenderer;
+
+/// Huber loss threshold.
+const HUBER_DELTA: f32 = 0.1;
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepStats {
+    /// The loss value.
+    pub loss: f32,
+    /// PSNR of the batch's colours (dB).
+    pub psnr: f32,
+    /// Rays in the batch.
+    pub rays: usize,
+    /// Samples in the batch.
+    pub samples: usize,
+    /// Seconds spent in each phase of the step.
+    pub timings: StepTimings,
+}
+
+/// Wall time of the phases of one step, in seconds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepTimings {
+    /// Occupancy-grid refresh (only on update steps).
+    pub occupancy: f64,
+    /// Pixel sampling and ray marching.
+    pub march: f64,
+    /// Field evaluation (encoding + MLPs).
+    pub field: f64,
+    /// Compositing and loss.
+    pub composite: f64,
+    /// Backward pass (compositing, MLPs and the grid scatter).
+    pub backward: f64,
+    /// Adam step.
+    pub optimizer: f64,
+}
+
+impl StepTimings {
+    /// Adds another step's timings.
+    pub fn add(&mut self, o: &StepTimings) {
+        self.occupancy += o.occupancy;
+        self.march += o.march;
+        self.field += o.field;
+        self.composite += o.composite;
+        self.backward += o.backward;
+        self.optimizer += o.optimizer;
+    }
+
+    /// The phases with their names.
+    pub fn named(&self) -> [(&'static str, f64); 6] {
+        [
+            ("occupancy", self.occupancy),
+            ("march", self.march),
+            ("field", self.field),
+            ("composite+loss", self.composite),
+            ("backward", self.backward),
+            ("optimizer", self.optimizer),
+        ]
+    }
+}
+
+/// A model in training with everything needed to continue: optimiser state, occupancy grid,
+/// step counter and the batch-size adaptation.
+pub struct Trainer {
+    /// The configuration.
+    pub config: NerfConfig,
+    /// The model (on the autodiff device).
+    pub model: NerfModel,
+    /// burn's Adam, with weight decay on the MLP group only.
+    pub optimizer: ModuleOptimizer,
+    /// The occupancy grid.
+    pub grid: OccupancyGrid,
+    /// Steps taken.
+    pub step: usize,
+    /// Rays for the next batch (adapted to the sample budget).
+    pub rays_per_batch: f32,
+    /// Angular size of a training pixel (sets the step growth).
+    pub pixel_angle: f32,
+    device: Device,
+}
+
+/// burn's Adam with the configured betas and ε; weight decay on the MLP weights only.
+pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
+    let t = &config.train;
+    let adam = AdamConfig::new().with_beta_1(t.beta1).with_beta_2(t.beta2).with_epsilon(t.epsilon);
+    let mlp = adam.clone().with_weight_decay(Some(WeightDecayConfig::new(t.weight_decay))).build();
+    adam.init().with_group(ParamGroup::from_path("mlp"), mlp, None)
+}
+
+impl Trainer {
+    /// A fresh model over the scene box `(min, max)`.
+    pub fn new(config: NerfConfig, bounds: (Vec3, Vec3), pixel_angle: f32, device: Device) -> Self {
+        let model = NerfModel::init(&config.field, &device, config.train.seed);
+        let grid = OccupancyGrid::new(config.occupancy.resolution, bounds.0, bounds.1);
+        Self::resume(config, model, None, grid, 0, pixel_angle, device)
+    }
+
+    /// Continues from saved state.
+    pub fn resume(
+        config: NerfConfig,
+        model: NerfModel,
+        optimizer: Option<ModuleOptimizer>,
+        grid: OccupancyGrid,
+        step: usize,
+        pixel_angle: f32,
+        device: Device,
+    ) -> Self {
+        let optimizer = optimizer.unwrap_or_else(|| self::optimizer(&config));
+        let rays_per_batch = config.train.initial_rays as f32;
+        Self { config, model, optimizer, grid, step, rays_per_batch, pixel_angle, device }
+    }
+
+    /// The marcher for this scene.
+    pub fn marcher(&self) -> RayMarcher {
+        let (lo, hi) = self.grid.bounds();
+        RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle)
+    }
+
+    /// The learning rate at the current step (exponential decay to the final fraction).
+    pub fn learning_rate(&self) -> f64 {
+        let t = &self.config.train;
+        let progress = (self.step as f64 / t.steps as f64).min(1.0);
+        t.learning_rate * t.final_learning_rate.powf(progress)
+    }
+
+    /// One optimisation step on random pixels of `data`.
+    pub fn step(&mut self, data: &ImageSet) -> StepStats {
+        let cfg = self.config.train;
+        let mut timings = StepTimings::default();
+        let mut clock = Instant::now();
+        let mut lap = |slot: &mut f64| {
+            let now = Instant::now();
+            *slot = (now - clock).as_secs_f64();
+            clock = now;
+        };
+        if self.step >= self.config.occupancy.warmup_steps
+            && self.step.is_multiple_of(self.config.occupancy.update_every)
+        {
+            self.update_occupancy();
+        }
+        lap(&mut timings.occupancy);
+        let mut rng = Rng::new(cfg.seed, mix(self.step as u64 + 1));
+        let n_rays = (self.rays_per_batch as usize).clamp(64, 1 << 20);
+        // Pixels uniformly over all training pixels, each at a random point of its area.
+        let sizes: Vec<usize> = (0..data.len()).map(|i| data.size(i).0 * data.size(i).1).collect();
+        let total: usize = sizes.iter().sum();
+        let mut rays = Vec::with_capacity(n_rays);
+        let mut targets = Vec::with_capacity(n_rays);
+        for _ in 0..n_rays {
+            let mut k = rng.below(total);
+            let mut img = 0;
+            while k >= sizes[img] {
+                k -= sizes[img];
+                img += 1;
+            }
+            let w = data.size(img).0;
+            let (x, y) = (k % w, k / w);
+            let ray = data.cameras[img].generate_ray(x as f32 + rng.uniform(), y as f32 + rng.uniform(), Vec2::ZERO);
+            rays.push((ray.origin, ray.direction));
+            targets.push(data.pixels[img][k]);
+        }
+        let seed = mix(cfg.seed ^ mix(self.step as u64));
+        let marcher = self.marcher();
+        let (batch, kept) = march_rays(
+            &rays,
+            |i| Rng::new(seed, i as u64).uniform(),
+            &marcher,
+            &self.grid,
+            Some(self.config.train.batch_samples),
+        );
+        let s = batch.samples.samples();
+        // Adapt the ray count so the next batch fills the sample budget.
+        let per_ray = s.max(1) as f32 / kept.max(1) as f32;
+        let wanted = self.config.train.batch_samples as f32 / per_ray;
+        self.rays_per_batch = 0.8 * self.rays_per_batch + 0.2 * wanted.min(4.0 * n_rays as f32);
+
+        let backgrounds: Vec<[f32; 3]> = (0..kept)
+            .map(|_| match cfg.background {
+                Background::White => [1.0; 3],
+                Background::Black => [0.0; 3],
+                Background::Random => [rng.uniform(), rng.uniform(), rng.uniform()],
+            })
+            .collect();
+        let target: Vec<f32> = targets[..kept]
+            .iter()
+            .zip(&backgrounds)
+            .flat_map(|(p, bg)| (0..3).map(move |c| p[c] * p[3] + bg[c] * (1.0 - p[3])))
+            .collect();
+        let bg: Vec<f32> = backgrounds.iter().flatten().copied().collect();
+        lap(&mut timings.march);
+        let device = &self.device;
+        let pos = Tensor::<2>::from_data(TensorData::new(batch.positions, [s, 3]), device);
+        let dir = Tensor::<2>::from_data(TensorData::new(batch.directions, [s, 3]), device);
+        let raw = self.model.field(pos, dir, self.config.field);
+        lap(&mut timings.field);
+        let out = field_ops::composite(raw, Arc::new(batch.samples), cfg.min_transmittance);
+        let rgb = out.clone().slice([0..kept, 0..3]);
+        let opacity = out.slice([0..kept, 3..4]);
+        let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept, 3]), device);
+        let target = Tensor::<2>::from_data(TensorData::new(target, [kept, 3]), device);
+        let pred = rgb + (opacity.neg() + 1.0) * bg;
+        let diff = pred - target;
+        let mse = diff.clone().square().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
+        let loss = match cfg.loss {
+            Loss::L2 => diff.square().mean(),
+            Loss::Huber => {
+                let a = diff.abs();
+                let q = a.clone().clamp_max(HUBER_DELTA);
+                (q.clone().square() * 0.5 + (a - q) * HUBER_DELTA).mean()
+            }
+        };
+        let loss_value = loss.clone().into_data().try_to_vec::<f32>().expect("f32")[0];
+        lap(&mut timings.composite);
+        let grads = loss.backward();
+        let grads = GradientsParams::from_grads(grads, &self.model);
+        lap(&mut timings.backward);
+        let lr = self.learning_rate();
+        self.model = self.optimizer.step(lr, self.model.clone(), grads);
+        // burn's ops run eagerly on the CPU backends; a read makes that explicit on others.
+        let _ = self.model.table.val().slice([0..1, 0..1]).into_data();
+        lap(&mut timings.optimizer);
+        self.step += 1;
+        StepStats { loss: loss_value, psnr: -10.0 * mse.max(1e-10).log10(), rays: kept, samples: s, timings }
+    }
+
+    /// Refreshes the occupancy grid: a quarter of the cells at random and up to as many
+    /// occupied ones (all cells at the first update), one random point each.
+    pub fn update_occupancy(&mut self) {
+        let occ = self.config.occupancy;
+        let cells = self.grid.cells();
+        let mut rng = Rng::new(self.config.train.seed ^ 0x6f63_6375, mix(self.step as u64));
+        let mut chosen: Vec<u32> = if self.step <= occ.warmup_steps {
+            (0..cells as u32).collect()
+        } else {
+            let occupied = self.grid.occupied_cells();
+            let m = cells / 4;
+            let mut v: Vec<u32> = (0..m).map(|_| rng.below(cells) as u32).collect();
+            if !occupied.is_empty() {
+                v.extend((0..m.min(occupied.len())).map(|_| occupied[rng.below(occupied.len())]));
+            }
+            v
+        };
+        chosen.sort_unstable();
+        let res = self.grid.resolution() as f32;
+        let positions: Vec<f32> = chosen
+            .iter()
+            .flat_map(|&c| {
+                let [x, y, z] = self.grid.cell_coords(c as usize);
+                let j = [rng.uniform(), rng.uniform(), rng.uniform()];
+                [(x as f32 + j[0]) / res, (y as f32 + j[1]) / res, (z as f32 + j[2]) / res]
+            })
+            .collect();
+        let n = chosen.len();
+        let pos = Tensor::<2>::from_data(TensorData::new(positions, [n, 3]), &self.device);
+        let sigma = self.model.density(pos, self.config.field).into_data().try_to_vec::<f32>().expect("f32");
+        let step = self.marcher().min_step();
+        let obs: Vec<(u32, f32)> = chosen.iter().zip(&sigma).map(|(&c, &s)| (c, s * step)).collect();
+        self.grid.update(&obs, occ.decay, occ.threshold);
+    }
+
+    /// The model without autodiff tracking, on the inner device, for rendering.
+    pub fn eval_model(&self) -> NerfModel {
+        burn::module::Module::valid(&self.model)
+    }
+
+    /// A renderer of `model` (from [`Self::eval_model`]) with this run's settings.
+    pub fn renderer<'a>(&'a self, model: &'a NerfModel) -> ViewRenderer<'a> {
+        let background = match self.config.train.eval_background {
+            Background::Black => [0.0; 3],
+            _ => [1.0; 3],
+        };
+        ViewRenderer {
+            model,
+            config: self.config.field,
+            grid: &self.grid,
+            marcher: self.marcher(),
+            min_transmittance: self.config.train.min_transmittance,
+            background,
+            device: crate::backend::default_device(),
+        }
+    }
+
+    /// The device the model lives on.
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+}
