@@ -5,8 +5,11 @@ use lucid_tests::{lucid_in, temp_dir};
 #[test]
 fn demo_generates_a_dataset_that_info_reads() {
     let dir = temp_dir();
-    let run = lucid_in(dir.path(), &["demo", "--out", "demo", "--size", "32", "--views", "6,2,3"]).success();
+    let args = ["demo", "--out", "demo", "--size", "32", "--views", "6,2,3", "--nerf-steps", "40"];
+    let run = lucid_in(dir.path(), &args).success();
     assert!(run.stdout.contains("nearest training view"), "{}", run.stdout);
+    assert!(run.stdout.contains("NeRF (40 steps"), "{}", run.stdout);
+    assert!(dir.path().join("demo/nerf/checkpoint.lucid").is_file());
 
     let metrics: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("demo/metrics.json")).unwrap()).unwrap();
@@ -16,6 +19,9 @@ fn demo_generates_a_dataset_that_info_reads() {
     // value half a step off); the nearest other view is far worse than that.
     assert!(quant > 54.0, "quantisation PSNR {quant}");
     assert!(nearest < 35.0 && nearest > 5.0, "nearest-view PSNR {nearest}");
+    let nerf = &metrics["metrics"]["nerf"];
+    assert_eq!(nerf["count"], 3);
+    assert!(nerf["psnr"].as_f64().unwrap() > 5.0, "{nerf}");
 
     let info = lucid_in(dir.path(), &["info", "demo/dataset", "--json"]).success().json();
     let splits = info["splits"].as_array().unwrap();

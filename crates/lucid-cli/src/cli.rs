@@ -117,6 +117,10 @@ pub struct EvalArgs {
     /// Evaluate only the first N views.
     #[arg(long)]
     pub limit: Option<usize>,
+    /// Render every view with a pinhole, even where the dataset gives a thin lens
+    /// (`aperture_radius`, `focus_distance`) for it.
+    #[arg(long)]
+    pub pinhole: bool,
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -255,6 +259,9 @@ fn parse_shard(text: &str) -> Result<(usize, usize), String> {
 pub enum BenchTarget {
     /// The path tracer on the reference Cornell box (256x256, 64 spp, max depth 8).
     Trace,
+    /// NeRF on the default object orbit set (200x200, 100 training views): held-out PSNR
+    /// after 30 s, 1, 2, 5 and 10 min of training, throughput, time per phase, render time.
+    Nerf,
 }
 
 /// `lucid bench`.
@@ -269,12 +276,22 @@ pub struct BenchArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// nerf: the dataset folder (rendered there first if missing or incomplete).
+    #[arg(long, default_value = "out/bench/object")]
+    pub dataset: PathBuf,
+    /// nerf: configuration overrides, as for `lucid train nerf --set`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// nerf: test views scored at each point of the curve (all of them at the end).
+    #[arg(long, default_value_t = 50)]
+    pub curve_views: usize,
 }
 
 /// `lucid render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// The scene description (TOML).
+    /// The scene description (TOML) to path-trace, or a checkpoint (`.lucid`) of a trained
+    /// model to render novel views from along a camera path.
     pub scene: PathBuf,
     /// Output image (.exr or .png); the other format and the `_depth`, `_normal`, `_albedo`
     /// EXR buffers are written beside it.
@@ -295,6 +312,36 @@ pub struct RenderArgs {
     /// Longest path in segments (overrides the scene's).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Checkpoints: the camera path around the scene centre.
+    #[arg(long, value_enum, default_value_t = CameraPathArg::Orbit)]
+    pub path: CameraPathArg,
+    /// Checkpoints: frames along the path (the output is a folder of numbered PNGs and depth EXRs).
+    #[arg(long, default_value_t = 60)]
+    pub frames: usize,
+    /// Checkpoints: camera distance from the scene centre (default: the training cameras').
+    #[arg(long)]
+    pub radius: Option<f32>,
+    /// Checkpoints: camera elevation in degrees (the orbit's; the spiral swings around it).
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    pub elevation: f32,
+    /// Checkpoints: thin-lens aperture radius (world units) for depth of field; needs --focus.
+    #[arg(long, requires = "focus")]
+    pub aperture: Option<f32>,
+    /// Checkpoints: distance of the plane of focus along the optical axis.
+    #[arg(long, requires = "aperture")]
+    pub focus: Option<f32>,
+    /// Checkpoints: rays per pixel over the lens.
+    #[arg(long, default_value_t = 32)]
+    pub lens_rays: usize,
+}
+
+/// Camera paths for rendering trained models.
+#[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
+pub enum CameraPathArg {
+    /// A circle at fixed elevation.
+    Orbit,
+    /// Two turns with the elevation swinging ±20° around --elevation.
+    Spiral,
 }
 
 /// `lucid demo`.
@@ -315,6 +362,9 @@ pub struct DemoArgs {
     /// Samples per pixel of the path tracer.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
+    /// NeRF training steps (default configuration otherwise); 0 skips the NeRF.
+    #[arg(long, default_value_t = 500)]
+    pub nerf_steps: usize,
 }
 
 /// Parses `TRAIN,VAL,TEST` view counts.

@@ -16,6 +16,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::config::NerfConfig;
+use crate::data::ViewInfo;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 use crate::trainer::{Trainer, optimizer};
@@ -63,6 +64,16 @@ pub struct CheckpointHeader {
     pub rays_per_batch: f32,
     /// Training time so far, in seconds.
     pub elapsed: f64,
+    /// How the training cameras saw the scene.
+    #[serde(default)]
+    pub view: ViewInfo,
+}
+
+/// Whether `path` starts like a Lucid checkpoint (any kind).
+pub fn is_checkpoint(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && &magic == MAGIC
 }
 
 /// Peeks at a checkpoint's kind without loading it.
@@ -123,6 +134,7 @@ pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), Checkpoi
         pixel_angle: trainer.pixel_angle,
         rays_per_batch: trainer.rays_per_batch,
         elapsed,
+        view: trainer.view,
     };
     let header = serde_json::to_vec_pretty(&header).expect("the header serialises");
     let model = trainer.model.clone().into_record().into_bytes().map_err(|e| invalid(path, e.to_string()))?;
@@ -196,5 +208,63 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
         device.clone(),
     );
     trainer.rays_per_batch = header.rays_per_batch;
+    trainer.view = header.view;
     Ok(Loaded { header, trainer })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::FieldConfig;
+
+    fn tiny_trainer() -> Trainer {
+        let mut config = NerfConfig {
+            field: FieldConfig { hidden: 8, geometry_features: 4, ..FieldConfig::default() },
+            ..Default::default()
+        };
+        config.field.grid.log2_table_size = 8;
+        config.field.grid.levels = 2;
+        config.occupancy.resolution = 8;
+        Trainer::new(config, (Vec3::splat(-1.0), Vec3::splat(1.0)), 0.01, crate::backend::training_device())
+    }
+
+    /// Rewrites the header section of a checkpoint's bytes.
+    fn with_header(bytes: &[u8], edit: impl Fn(&str) -> String) -> Vec<u8> {
+        let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+        let header = edit(std::str::from_utf8(&bytes[20..20 + len]).unwrap());
+        let mut out = bytes[..12].to_vec();
+        out.extend((header.len() as u64).to_le_bytes());
+        out.extend(header.as_bytes());
+        out.extend(&bytes[20 + len..]);
+        out
+    }
+
+    #[test]
+    fn round_trip_and_clear_errors_for_other_kinds_versions_and_damage() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.lucid");
+        let trainer = tiny_trainer();
+        save(&path, &trainer, 1.5).unwrap();
+        let loaded = load(&path, &crate::backend::default_device()).unwrap();
+        assert_eq!(loaded.header.elapsed, 1.5);
+        assert_eq!(loaded.trainer.grid, trainer.grid);
+        let values = |m: &NerfModel| m.mlp.val().into_data().try_to_vec::<f32>().unwrap();
+        assert_eq!(values(&loaded.trainer.model), values(&trainer.model));
+
+        let bytes = std::fs::read(&path).unwrap();
+        let err = |bytes: &[u8]| {
+            let p = dir.path().join("x.lucid");
+            std::fs::write(&p, bytes).unwrap();
+            load(&p, &crate::backend::default_device()).err().expect("an error").to_string()
+        };
+        let splat = with_header(&bytes, |h| h.replace("\"kind\": \"nerf\"", "\"kind\": \"splat\""));
+        assert!(err(&splat).contains("a 'splat' checkpoint, expected a 'nerf' one"), "{}", err(&splat));
+        let mut version = bytes.clone();
+        version[8] = 9;
+        assert!(err(&version).contains("version 9"), "{}", err(&version));
+        assert!(err(&bytes[..bytes.len() - 10]).contains("truncated"), "{}", err(&bytes[..bytes.len() - 10]));
+        assert!(err(b"hello").contains("not a Lucid checkpoint"));
+        let garbled = with_header(&bytes, |h| h.replace("\"step\"", "\"stop\""));
+        assert!(err(&garbled).contains("malformed header"), "{}", err(&garbled));
+    }
 }

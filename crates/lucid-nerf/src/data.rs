@@ -7,6 +7,7 @@ use lucid_image::color::srgb_encode;
 use lucid_scene::camera::PinholeCamera;
 use lucid_scene::dataset::{Dataset, Frame, SceneBounds};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 /// Images of one split: colours sRGB-encoded in `[0,1]` (the space NeRFs are trained and
 /// scored in) with straight alpha.
@@ -18,13 +19,16 @@ pub struct ImageSet {
     pub pixels: Vec<Vec<[f32; 4]>>,
     /// Source file of each image.
     pub paths: Vec<PathBuf>,
+    /// Thin lens of each view, `(aperture radius, focus distance)`, where the dataset gives
+    /// one (e.g. the light-field rig's refocused ground truths).
+    pub lenses: Vec<Option<(f32, f32)>>,
 }
 
 impl ImageSet {
     /// Reads the frames' images in parallel. HDR files are clipped to `[0,1]` after encoding.
     pub fn load(frames: &[Frame]) -> Result<Self, lucid_image::ImageError> {
         let images: Vec<_> = frames.par_iter().map(|f| lucid_image::read_image(&f.image_path)).collect();
-        let mut set = Self { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new() };
+        let mut set = Self { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
         for (frame, image) in frames.iter().zip(images) {
             let image = image?;
             let pixels = image
@@ -38,6 +42,8 @@ impl ImageSet {
             set.cameras.push(frame.camera);
             set.pixels.push(pixels);
             set.paths.push(frame.image_path.clone());
+            let lens = frame.extras.aperture_radius.zip(frame.extras.focus_distance);
+            set.lenses.push(lens.filter(|(a, f)| *a > 0.0 && *f > 0.0));
         }
         Ok(set)
     }
@@ -62,6 +68,35 @@ impl ImageSet {
     pub fn pixel_angle(&self) -> f32 {
         let sum: f32 = self.cameras.iter().map(|c| 1.0 / c.intrinsics.fx).sum();
         sum / self.cameras.len().max(1) as f32
+    }
+}
+
+/// How the training cameras saw the scene: the defaults of novel-view paths.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewInfo {
+    /// Mean distance of the cameras from the centre of the scene box.
+    pub radius: f32,
+    /// Image width of the first camera.
+    pub width: u32,
+    /// Image height of the first camera.
+    pub height: u32,
+    /// Horizontal field of view of the first camera (radians).
+    pub fov_x: f32,
+}
+
+impl Default for ViewInfo {
+    fn default() -> Self {
+        Self { radius: 4.0, width: 200, height: 200, fov_x: 40f32.to_radians() }
+    }
+}
+
+impl ViewInfo {
+    /// From a set of frames around `centre`.
+    pub fn from_frames(frames: &[Frame], centre: Vec3) -> Self {
+        let Some(first) = frames.first() else { return Self::default() };
+        let radius = frames.iter().map(|f| (f.camera.position() - centre).length()).sum::<f32>() / frames.len() as f32;
+        let k = first.camera.intrinsics;
+        Self { radius, width: k.width, height: k.height, fov_x: k.fov_x() }
     }
 }
 

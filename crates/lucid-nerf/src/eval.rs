@@ -10,6 +10,9 @@ use serde::Serialize;
 use crate::data::ImageSet;
 use crate::render::view::{RenderedView, ViewRenderer};
 
+/// Rays per pixel over the lens for thin-lens views.
+pub const LENS_RAYS: usize = 32;
+
 /// The scores of one view.
 #[derive(Clone, Debug, Serialize)]
 pub struct ViewScore {
@@ -70,7 +73,11 @@ pub fn evaluate(
     let mut scores = Vec::with_capacity(n);
     for i in 0..n {
         let start = Instant::now();
-        let view = renderer.render(&set.cameras[i]);
+        // Views with a thin lens (refocused ground truths) are rendered through the same lens.
+        let view = match set.lenses[i] {
+            Some(lens) => renderer.render_lens(&set.cameras[i], Some(lens), LENS_RAYS, i as u64),
+            None => renderer.render(&set.cameras[i]),
+        };
         let seconds = start.elapsed().as_secs_f64();
         let truth = ground_truth(set, i, renderer.background);
         let opaque = view.colour.map(|p| [p[0], p[1], p[2], 1.0]);

@@ -13,7 +13,7 @@ use lucid_scene::camera::Camera;
 use lucid_scene::sampling::{Rng, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
-use crate::data::ImageSet;
+use crate::data::{ImageSet, ViewInfo};
 use crate::field_ops;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
@@ -97,6 +97,11 @@ pub struct Trainer {
     pub rays_per_batch: f32,
     /// Angular size of a training pixel (sets the step growth).
     pub pixel_angle: f32,
+    /// How the training cameras saw the scene (defaults for rendering paths).
+    pub view: ViewInfo,
+    /// Fraction of a wall-clock budget used so far (set by time-limited loops): the
+    /// learning-rate schedule follows whichever budget, steps or time, is further along.
+    pub budget_progress: f64,
     device: Device,
 }
 
@@ -128,7 +133,18 @@ impl Trainer {
     ) -> Self {
         let optimizer = optimizer.unwrap_or_else(|| self::optimizer(&config));
         let rays_per_batch = config.train.initial_rays as f32;
-        Self { config, model, optimizer, grid, step, rays_per_batch, pixel_angle, device }
+        Self {
+            config,
+            model,
+            optimizer,
+            grid,
+            step,
+            rays_per_batch,
+            pixel_angle,
+            view: ViewInfo::default(),
+            budget_progress: 0.0,
+            device,
+        }
     }
 
     /// The marcher for this scene.
@@ -137,10 +153,11 @@ impl Trainer {
         RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle)
     }
 
-    /// The learning rate at the current step (exponential decay to the final fraction).
+    /// The learning rate at the current step (exponential decay to the final fraction over the
+    /// steps, or over the time budget when that runs out first).
     pub fn learning_rate(&self) -> f64 {
         let t = &self.config.train;
-        let progress = (self.step as f64 / t.steps as f64).min(1.0);
+        let progress = (self.step as f64 / t.steps as f64).max(self.budget_progress).min(1.0);
         t.learning_rate * t.final_learning_rate.powf(progress)
     }
 
@@ -244,7 +261,7 @@ impl Trainer {
         StepStats { loss: loss_value, psnr: -10.0 * mse.max(1e-10).log10(), rays: kept, samples: s, timings }
     }
 
-    /// Refreshes the occupancy grid: a quarter of the cells at random and up to as many
+    /// Refreshes the occupancy grid: a fraction of the cells at random and up to as many
     /// occupied ones (all cells at the first update), one random point each.
     pub fn update_occupancy(&mut self) {
         let occ = self.config.occupancy;
@@ -254,7 +271,7 @@ impl Trainer {
             (0..cells as u32).collect()
         } else {
             let occupied = self.grid.occupied_cells();
-            let m = cells / 4;
+            let m = ((cells as f32 * occ.sample_fraction) as usize).max(1);
             let mut v: Vec<u32> = (0..m).map(|_| rng.below(cells) as u32).collect();
             if !occupied.is_empty() {
                 v.extend((0..m.min(occupied.len())).map(|_| occupied[rng.below(occupied.len())]));

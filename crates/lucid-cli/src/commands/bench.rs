@@ -17,6 +17,12 @@ const CORNELL_REFERENCE_MEAN: f64 = 0.1470;
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let result = match args.target {
         BenchTarget::Trace => bench_trace(args.quick)?,
+        BenchTarget::Nerf => super::bench_nerf::run(super::bench_nerf::NerfBench {
+            dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
+            quick: args.quick,
+            overrides: args.overrides.clone(),
+            curve_views: args.curve_views,
+        })?,
     };
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&result)?;

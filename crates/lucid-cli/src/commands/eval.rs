@@ -36,7 +36,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| args.checkpoint.parent().unwrap_or(Path::new(".")).join(format!("eval_{}", split.name())));
-    evaluate_checkpoint_state(&loaded.trainer, &dataset, split, args.limit, &out, args.json)
+    evaluate_checkpoint_state(&loaded.trainer, &dataset, split, args.limit, &out, args.json, args.pinhole)
 }
 
 /// Evaluates a trainer's model on a split, writing `out/` and printing the results.
@@ -47,10 +47,14 @@ pub fn evaluate_checkpoint_state(
     limit: Option<usize>,
     out: &Path,
     json_out: bool,
+    pinhole: bool,
 ) -> anyhow::Result<()> {
     let frames = dataset.frames(split);
     let frames = &frames[..limit.unwrap_or(frames.len()).min(frames.len())];
-    let set = ImageSet::load(frames).with_context(|| format!("loading the {} images", split.name()))?;
+    let mut set = ImageSet::load(frames).with_context(|| format!("loading the {} images", split.name()))?;
+    if pinhole {
+        set.lenses.iter_mut().for_each(|l| *l = None);
+    }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let model = trainer.eval_model();
     let renderer = trainer.renderer(&model);
@@ -77,6 +81,7 @@ pub fn evaluate_checkpoint_state(
         "summary": summary,
         "views": scores,
         "metric_space": "sRGB-encoded, composited on the background",
+        "thin_lens_views": set.lenses.iter().filter(|l| l.is_some()).count(),
     });
     crate::commands::train::write_text(&out.join("metrics.json"), &serde_json::to_string_pretty(&report)?)?;
     if json_out {

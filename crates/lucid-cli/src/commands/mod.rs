@@ -1,14 +1,16 @@
 //! One module per subcommand; each exposes `run(args) -> anyhow::Result<()>`.
 
 mod bench;
+mod bench_nerf;
 mod convert;
-mod demo;
+pub mod demo;
 mod eval;
 pub mod generate;
 mod info;
 mod metrics;
 mod refocus;
 mod render;
+mod render_model;
 mod rig_file;
 mod train;
 

@@ -11,6 +11,9 @@ use lucid_trace::{RenderCamera, load_scene, render};
 use crate::cli::RenderArgs;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    if args.scene.extension().is_some_and(|e| e == "lucid") || lucid_nerf::checkpoint::is_checkpoint(&args.scene) {
+        return super::render_model::run(args);
+    }
     let format = ImageFormat::from_path(&args.output)?;
     if !matches!(format, ImageFormat::Exr | ImageFormat::Png) {
         bail!("{}: render writes .exr or .png (with the other beside it)", args.output.display());

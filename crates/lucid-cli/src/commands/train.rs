@@ -93,7 +93,10 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     } else {
         let config = nerf_config(args.config.as_deref(), &args.overrides, args.steps, args.time_limit, args.seed)?;
         let data_angle = frames.iter().map(|f| 1.0 / f.camera.intrinsics.fx).sum::<f32>() / frames.len() as f32;
-        (Trainer::new(config, scene_box(&dataset), data_angle, device), 0.0)
+        let bounds = scene_box(&dataset);
+        let mut trainer = Trainer::new(config, bounds, data_angle, device);
+        trainer.view = lucid_nerf::data::ViewInfo::from_frames(frames, (bounds.0 + bounds.1) * 0.5);
+        (trainer, 0.0)
     };
     let config_text = toml::to_string(&trainer.config)?;
     write_text(&args.output.join("config.toml"), &config_text)?;
@@ -121,6 +124,9 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     let mut phases = lucid_nerf::trainer::StepTimings::default();
     let last = args.until.unwrap_or(t.steps).min(t.steps);
     while trainer.step < last && (t.time_limit == 0.0 || elapsed < t.time_limit) {
+        if t.time_limit > 0.0 {
+            trainer.budget_progress = elapsed / t.time_limit;
+        }
         let stats = trainer.step(&data);
         elapsed = start.elapsed().as_secs_f64();
         window_samples += stats.samples;
@@ -144,7 +150,7 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
             )
             .with_context(|| log_path.display().to_string())?;
             log.flush().with_context(|| log_path.display().to_string())?;
-            bar.set_message(format!("{:.2} dB", stats.psnr));
+            bar.set_message(format!("loss {:.5} {:.2} dB {:.0}k samples/s", stats.loss, stats.psnr, rate / 1e3));
             tracing::debug!(step = trainer.step, loss = stats.loss, psnr = stats.psnr, samples_per_s = rate);
         }
         if t.checkpoint_every > 0 && trainer.step % t.checkpoint_every == 0 {
@@ -158,7 +164,7 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     let shares: Vec<String> =
         phases.named().iter().map(|(n, t)| format!("{n} {:.0}%", 100.0 * t / total.max(1e-9))).collect();
     println!("time per phase: {}", shares.join(", "));
-    if trainer.step < t.steps {
+    if args.until.is_some_and(|u| u < t.steps) {
         println!("stopped at step {} of {}; continue with --resume", trainer.step, t.steps);
     } else if !args.no_eval && !dataset.frames(Split::Test).is_empty() {
         crate::commands::eval::evaluate_checkpoint_state(
@@ -167,6 +173,7 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
             Split::Test,
             None,
             &args.output.join("eval_test"),
+            false,
             false,
         )?;
     }

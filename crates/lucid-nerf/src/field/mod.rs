@@ -253,6 +253,22 @@ impl FieldLayout {
         assert_eq!(saved.len(), s * stride, "saved activations do not match the positions");
         assert_eq!(grad_out.len(), s * 4, "output gradient is S×4");
         assert_eq!(grad_mlp.len(), self.mlp_params(), "MLP gradient has the wrong size");
+        // Samples past a ray's early termination (often half the batch) have an all-zero
+        // gradient: compact them away before the MLP backward and the table scatter.
+        let active: Vec<usize> = (0..s).filter(|&i| grad_out[4 * i..4 * i + 4].iter().any(|&g| g != 0.0)).collect();
+        tracing::trace!(samples = s, active = active.len(), "field backward");
+        let compacted;
+        let (positions, saved, grad_out) = if active.len() == s {
+            (positions, saved, grad_out)
+        } else {
+            compacted = (
+                gather_rows(positions, 3, &active),
+                gather_rows(saved, stride, &active),
+                gather_rows(grad_out, 4, &active),
+            );
+            (&compacted.0[..], &compacted.1[..], &compacted.2[..])
+        };
+        let s = active.len();
         let enc = self.grid.output_dim();
         let mut grad_enc = vec![0.0f32; s * enc];
         let wide = self.widest();
@@ -276,17 +292,7 @@ impl FieldLayout {
         for gw in partials {
             grad_mlp.iter_mut().zip(&gw).for_each(|(d, g)| *d += g);
         }
-        // Samples past a ray's early termination have an all-zero gradient; scattering their
-        // zeros into the table is wasted work (often half the batch), so compact them away.
-        let active: Vec<usize> = (0..s).filter(|&i| grad_out[4 * i..4 * i + 4].iter().any(|&g| g != 0.0)).collect();
-        if active.len() == s {
-            self.grid.backward(positions, &grad_enc, grad_table);
-        } else {
-            let pos: Vec<f32> = active.iter().flat_map(|&i| positions[3 * i..3 * i + 3].iter().copied()).collect();
-            let grad: Vec<f32> =
-                active.iter().flat_map(|&i| grad_enc[enc * i..enc * (i + 1)].iter().copied()).collect();
-            self.grid.backward(&pos, &grad, grad_table);
-        }
+        self.grid.backward(positions, &grad_enc, grad_table);
     }
 
     fn widest(&self) -> usize {
@@ -383,6 +389,17 @@ impl FieldLayout {
     }
 }
 
+/// The rows `indices` of a row-major matrix of `width` columns.
+fn gather_rows(data: &[f32], width: usize, indices: &[usize]) -> Vec<f32> {
+    let mut out = vec![0.0; indices.len() * width];
+    out.par_chunks_mut(width * 1024).zip(indices.par_chunks(1024)).for_each(|(out, idx)| {
+        for (o, &i) in out.chunks_exact_mut(width).zip(idx) {
+            o.copy_from_slice(&data[i * width..(i + 1) * width]);
+        }
+    });
+    out
+}
+
 #[inline]
 fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
@@ -457,6 +474,28 @@ mod tests {
             assert_eq!(sigma[i], a[4 * i]);
             assert!(a[4 * i] > 0.0 && (0.0..=1.0).contains(&a[4 * i + 1]));
         }
+    }
+
+    #[test]
+    fn samples_with_zero_gradient_are_skipped_exactly() {
+        let c = case(4);
+        let s = c.pos.len() / 3;
+        let stride = c.layout.saved_per_sample();
+        let mut out = vec![0.0; 4 * s];
+        let mut saved = vec![0.0; s * stride];
+        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
+        let keep: Vec<usize> = (0..s).filter(|i| i % 3 != 1).collect();
+        let mut grad = c.weights.clone();
+        for i in (0..s).filter(|i| i % 3 == 1) {
+            grad[4 * i..4 * i + 4].fill(0.0);
+        }
+        let (mut gt, mut gm) = (vec![0.0; c.table.len()], vec![0.0; c.mlp.len()]);
+        c.layout.backward(&c.pos, &c.mlp, &saved, &grad, &mut gt, &mut gm);
+        let sub = |v: &[f32], w: usize| gather_rows(v, w, &keep);
+        let (mut rt, mut rm) = (vec![0.0; c.table.len()], vec![0.0; c.mlp.len()]);
+        c.layout.backward(&sub(&c.pos, 3), &c.mlp, &sub(&saved, stride), &sub(&grad, 4), &mut rt, &mut rm);
+        assert_eq!(gt, rt);
+        assert_eq!(gm, rm);
     }
 
     #[test]
