@@ -91,11 +91,11 @@ impl Default for ViewInfo {
 }
 
 impl ViewInfo {
-    /// From a set of frames around `centre`.
-    pub fn from_frames(frames: &[Frame], centre: Vec3) -> Self {
-        let Some(first) = frames.first() else { return Self::default() };
-        let radius = frames.iter().map(|f| (f.camera.position() - centre).length()).sum::<f32>() / frames.len() as f32;
-        let k = first.camera.intrinsics;
+    /// From a set of cameras around `centre`.
+    pub fn from_cameras(cameras: &[PinholeCamera], centre: Vec3) -> Self {
+        let Some(first) = cameras.first() else { return Self::default() };
+        let radius = cameras.iter().map(|c| (c.position() - centre).length()).sum::<f32>() / cameras.len() as f32;
+        let k = first.intrinsics;
         Self { radius, width: k.width, height: k.height, fov_x: k.fov_x() }
     }
 }

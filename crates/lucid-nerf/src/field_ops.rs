@@ -18,6 +18,7 @@ use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extensi
 use burn::tensor::{Tensor, TensorData};
 
 use crate::field::FieldConfig;
+use crate::kernels::{constant, to_host};
 use crate::render::composite::{PackedSamples, RAY_OUTPUTS, composite_backward, composite_forward};
 
 /// Compositing parameters that travel with the op.
@@ -139,33 +140,15 @@ fn field_host<B: Backend>(
     (out, saved)
 }
 
-/// Reads a float tensor to host memory as `f32`.
-fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
-    let data = burn::tensor::try_read_sync(B::float_into_data(tensor))
-        .expect("a synchronous read is possible")
-        .expect("tensor data is readable");
-    data.try_into_vec_as::<f32>().expect("float data converts to f32")
-}
-
 #[cfg(feature = "flex")]
 mod flex_impl {
-    use std::borrow::Cow;
-
     use burn::backend::Flex;
     use burn::backend::flex::FlexTensor;
-    use burn::tensor::{DType, TensorData};
+    use burn::tensor::TensorData;
 
     use super::{CompositeArgs, FieldConfig, NerfOps};
+    use crate::kernels::flex_impl::values;
     use crate::render::composite::{RAY_OUTPUTS, composite_backward, composite_forward};
-
-    /// The tensor's `f32` values in row-major order, borrowed when already contiguous.
-    fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
-        assert_eq!(t.dtype(), DType::F32, "NeRF kernels work on f32 tensors");
-        match t.as_slice::<f32>() {
-            Some(s) => Cow::Borrowed(s),
-            None => Cow::Owned(t.to_contiguous().as_slice::<f32>().expect("contiguous").to_vec()),
-        }
-    }
 
     fn tensor<const N: usize>(v: Vec<f32>, shape: [usize; N]) -> FlexTensor {
         FlexTensor::from_data(TensorData::new(v, shape))
@@ -246,23 +229,6 @@ impl NerfOps for burn::backend::NdArray {}
 
 #[cfg(feature = "wgpu")]
 impl NerfOps for burn::backend::Cube {}
-
-/// A backward step with nothing to propagate (for ops whose inputs are all constants).
-#[derive(Debug)]
-struct Constant;
-
-impl<B: Backend> Backward<B, 0> for Constant {
-    type State = ();
-
-    fn backward(self, _ops: Ops<(), 0>, _grads: &mut Gradients, _checkpointer: &mut Checkpointer) {}
-}
-
-fn constant<B: Backend, C: CheckpointStrategy>(t: FloatTensor<B>) -> FloatTensor<Autodiff<B, C>> {
-    match Constant.prepare::<C>([]).compute_bound().stateful() {
-        OpsKind::Tracked(prep) => prep.finish((), t),
-        OpsKind::UnTracked(prep) => prep.finish(t),
-    }
-}
 
 impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
     fn field_forward(

@@ -58,16 +58,34 @@ pub trait HashGridOps: Backend {
     }
 }
 
-/// Reads a float tensor to host memory as `f32`.
-fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
+/// Reads a float tensor to host memory as `f32` (the default bodies of our ops).
+pub(crate) fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
     let data = burn::tensor::try_read_sync(B::float_into_data(tensor))
         .expect("a synchronous read is possible")
         .expect("tensor data is readable");
     data.try_into_vec_as::<f32>().expect("float data converts to f32")
 }
 
+/// Wraps a result that no backward pass flows through (gradients of gradients, densities
+/// for the occupancy grid) as an untracked autodiff tensor.
+pub(crate) fn constant<B: Backend, C: CheckpointStrategy>(t: FloatTensor<B>) -> FloatTensor<Autodiff<B, C>> {
+    #[derive(Debug)]
+    struct Constant;
+
+    impl<B: Backend> Backward<B, 0> for Constant {
+        type State = ();
+
+        fn backward(self, _ops: Ops<(), 0>, _grads: &mut Gradients, _checkpointer: &mut Checkpointer) {}
+    }
+
+    match Constant.prepare::<C>([]).compute_bound().stateful() {
+        OpsKind::Tracked(prep) => prep.finish((), t),
+        OpsKind::UnTracked(prep) => prep.finish(t),
+    }
+}
+
 #[cfg(feature = "flex")]
-mod flex_impl {
+pub(crate) mod flex_impl {
     use std::borrow::Cow;
 
     use burn::backend::Flex;
@@ -77,8 +95,8 @@ mod flex_impl {
     use super::{HashGridConfig, HashGridOps};
 
     /// The tensor's `f32` values in row-major order, borrowed when already contiguous.
-    fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
-        assert_eq!(t.dtype(), DType::F32, "hash grid kernels work on f32 tensors");
+    pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
+        assert_eq!(t.dtype(), DType::F32, "NeRF kernels work on f32 tensors");
         match t.as_slice::<f32>() {
             Some(s) => Cow::Borrowed(s),
             None => Cow::Owned(t.to_contiguous().as_slice::<f32>().expect("contiguous").to_vec()),
@@ -144,20 +162,8 @@ impl<B: Backend + HashGridOps, C: CheckpointStrategy> HashGridOps for Autodiff<B
         config: HashGridConfig,
     ) -> FloatTensor<Self> {
         // Second derivatives are not needed by any trainer: the result is a constant.
-        #[derive(Debug)]
-        struct Constant;
-
-        impl<B: Backend> Backward<B, 0> for Constant {
-            type State = ();
-
-            fn backward(self, _ops: Ops<(), 0>, _grads: &mut Gradients, _checkpointer: &mut Checkpointer) {}
-        }
-
         let grad = B::hash_grid_backward(positions.into_primitive(), grad_out.into_primitive(), config);
-        match Constant.prepare::<C>([]).compute_bound().stateful() {
-            OpsKind::Tracked(prep) => prep.finish((), grad),
-            OpsKind::UnTracked(prep) => prep.finish(grad),
-        }
+        constant::<B, C>(grad)
     }
 }
 

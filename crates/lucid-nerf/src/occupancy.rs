@@ -119,7 +119,8 @@ impl OccupancyGrid {
         }
     }
 
-    /// The raw state, for checkpoints: thickness per cell (the bitfield is recomputed).
+    /// A grid from its saved state (thickness per cell and bitfield words), or `None` when
+    /// their lengths do not match the resolution.
     pub fn from_parts(resolution: u32, min: Vec3, max: Vec3, thickness: Vec<f32>, bits: Vec<u64>) -> Option<Self> {
         let cells = (resolution as usize).checked_pow(3)?;
         (thickness.len() == cells && bits.len() == cells.div_ceil(64)).then_some(Self {

@@ -9,11 +9,12 @@ use burn::module::ParamGroup;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer, decay::WeightDecayConfig};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
+use lucid_scene::Dataset;
 use lucid_scene::camera::Camera;
 use lucid_scene::sampling::{Rng, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
-use crate::data::{ImageSet, ViewInfo};
+use crate::data::{ImageSet, ViewInfo, scene_box};
 use crate::field_ops;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
@@ -119,6 +120,15 @@ impl Trainer {
         let model = NerfModel::init(&config.field, &device, config.train.seed);
         let grid = OccupancyGrid::new(config.occupancy.resolution, bounds.0, bounds.1);
         Self::resume(config, model, None, grid, 0, pixel_angle, device)
+    }
+
+    /// A fresh model for `dataset` trained on `data` (its training images): the dataset's
+    /// scene box, the cameras' pixel angle for the step growth, and their view for rendering.
+    pub fn for_dataset(config: NerfConfig, dataset: &Dataset, data: &ImageSet, device: Device) -> Self {
+        let bounds = scene_box(dataset);
+        let mut trainer = Self::new(config, bounds, data.pixel_angle(), device);
+        trainer.view = ViewInfo::from_cameras(&data.cameras, (bounds.0 + bounds.1) * 0.5);
+        trainer
     }
 
     /// Continues from saved state.

@@ -1,6 +1,5 @@
 //! `lucid bench`: fixed-seed benchmarks that print a table (and optionally JSON).
 
-use std::io::Write;
 use std::path::Path;
 
 use lucid_scene::{Intrinsics, PinholeCamera};
@@ -25,10 +24,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         })?,
     };
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&result)?;
-        lucid_image::write_atomically(path, |out| {
-            out.write_all(text.as_bytes()).map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
-        })?;
+        super::write_text(path, &serde_json::to_string_pretty(&result)?)?;
         println!("results written to {}", path.display());
     }
     Ok(())

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use lucid_datasets_gen::{PathTracedScene, Shard, generate_dataset};
-use lucid_nerf::data::{ImageSet, scene_box};
+use lucid_nerf::data::ImageSet;
 use lucid_nerf::eval::evaluate;
 use lucid_nerf::profile::time_kernels;
 use lucid_nerf::trainer::{StepTimings, Trainer};
@@ -61,7 +61,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     config.train.steps = config.train.steps.max(if bench.quick { 400 } else { 6000 });
     config.train.time_limit = total;
     let device = lucid_nerf::backend::training_device();
-    let mut trainer = Trainer::new(config, scene_box(&dataset), train.pixel_angle(), device);
+    let mut trainer = Trainer::for_dataset(config, &dataset, &train, device);
 
     let curve_views = bench.curve_views.min(test.len()).max(1);
     let mut curve = Vec::new();

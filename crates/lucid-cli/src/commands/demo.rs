@@ -4,8 +4,6 @@
 //! must beat), and a NeRF trained on the training views. Writes `<out>/dataset/`,
 //! `<out>/nerf/` (checkpoint and test renders) and `<out>/metrics.json`.
 
-use std::io::Write;
-
 use anyhow::{Context, bail};
 use glam::{Vec3, Vec4Swizzles};
 use lucid_datasets_gen::writer::DatasetSpec;
@@ -112,10 +110,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "seconds": elapsed,
     });
     let path = args.out.join("metrics.json");
-    lucid_image::write_atomically(&path, |out| {
-        out.write_all(serde_json::to_string_pretty(&report).expect("serialisable").as_bytes())
-            .map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
-    })?;
+    super::write_text(&path, &serde_json::to_string_pretty(&report)?)?;
     println!("metrics written to {}", path.display());
     Ok(())
 }
@@ -131,16 +126,14 @@ struct NerfResult {
 /// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and
 /// scores it on the test views (renders written beside the checkpoint).
 fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<NerfResult> {
-    use lucid_nerf::data::{ImageSet, ViewInfo, scene_box};
+    use lucid_nerf::data::ImageSet;
     let frames = dataset.frames(Split::Train);
     let mut config = lucid_nerf::config::NerfConfig::default();
     config.train.steps = args.nerf_steps;
     config.train.seed = args.seed;
     let train = ImageSet::load(frames)?;
-    let bounds = scene_box(dataset);
     let mut trainer =
-        lucid_nerf::trainer::Trainer::new(config, bounds, train.pixel_angle(), lucid_nerf::backend::training_device());
-    trainer.view = ViewInfo::from_frames(frames, (bounds.0 + bounds.1) * 0.5);
+        lucid_nerf::trainer::Trainer::for_dataset(config, dataset, &train, lucid_nerf::backend::training_device());
     tracing::info!("training a NeRF for {} steps", args.nerf_steps);
     let bar = crate::progress::bar(args.nerf_steps as u64, "nerf");
     let started = std::time::Instant::now();
@@ -159,11 +152,7 @@ fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<NerfResult> 
     let renderer = trainer.renderer(&model);
     let mut failure = None;
     let (_, summary) = lucid_nerf::eval::evaluate(&renderer, &test, None, |i, view, _, _| {
-        let linear = view.colour.map(|p| {
-            use lucid_image::color::srgb_decode;
-            [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]
-        });
-        if let Err(e) = lucid_image::write_image(dir.join(format!("test_{i:03}.png")), &linear) {
+        if let Err(e) = lucid_image::write_image(dir.join(format!("test_{i:03}.png")), &view.linear_colour()) {
             failure.get_or_insert(e);
         }
     });

@@ -83,7 +83,7 @@ pub fn evaluate_checkpoint_state(
         "metric_space": "sRGB-encoded, composited on the background",
         "thin_lens_views": set.lenses.iter().filter(|l| l.is_some()).count(),
     });
-    crate::commands::train::write_text(&out.join("metrics.json"), &serde_json::to_string_pretty(&report)?)?;
+    super::write_text(&out.join("metrics.json"), &serde_json::to_string_pretty(&report)?)?;
     if json_out {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

@@ -6,8 +6,7 @@ use std::f32::consts::TAU;
 
 use anyhow::{Context, bail};
 use glam::Vec3;
-use lucid_image::color::srgb_decode;
-use lucid_image::{Image, WriteOptions, write_image, write_image_with};
+use lucid_image::{WriteOptions, write_image, write_image_with};
 use lucid_nerf::checkpoint;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
@@ -56,14 +55,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let eye = centre + radius * Vec3::new(e.cos() * azimuth.cos(), e.cos() * azimuth.sin(), e.sin());
         let camera = PinholeCamera::new(intrinsics, look_at(eye, centre, Vec3::Z));
         let out = renderer.render_lens(&camera, lens, args.lens_rays, k as u64);
-        let linear = out.colour.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]);
-        write_image(args.output.join(format!("frame_{k:04}.png")), &linear)?;
-        let depth = Image::from_pixels(w as usize, h as usize, out.depth.iter().map(|&d| [d, d, d, 1.0]).collect());
-        write_image_with(
-            args.output.join(format!("frame_{k:04}_depth.exr")),
-            &depth,
-            WriteOptions { single_channel: true, ..Default::default() },
-        )?;
+        write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
+        let depth_options = WriteOptions { single_channel: true, ..Default::default() };
+        write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &out.depth_image(), depth_options)?;
         bar.inc(1);
     }
     bar.finish_and_clear();

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use lucid_nerf::checkpoint;
 use lucid_nerf::config::NerfConfig;
-use lucid_nerf::data::{ImageSet, scene_box};
+use lucid_nerf::data::ImageSet;
 use lucid_nerf::trainer::Trainer;
 use lucid_scene::{Dataset, Split};
 
@@ -78,6 +78,8 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let ckpt = args.output.join("checkpoint.lucid");
+    let load_start = Instant::now();
+    let data = ImageSet::load(frames).context("loading training images")?;
     let device = lucid_nerf::backend::training_device();
     let (mut trainer, mut elapsed) = if args.resume {
         let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
@@ -92,17 +94,11 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
         (trainer, loaded.header.elapsed)
     } else {
         let config = nerf_config(args.config.as_deref(), &args.overrides, args.steps, args.time_limit, args.seed)?;
-        let data_angle = frames.iter().map(|f| 1.0 / f.camera.intrinsics.fx).sum::<f32>() / frames.len() as f32;
-        let bounds = scene_box(&dataset);
-        let mut trainer = Trainer::new(config, bounds, data_angle, device);
-        trainer.view = lucid_nerf::data::ViewInfo::from_frames(frames, (bounds.0 + bounds.1) * 0.5);
-        (trainer, 0.0)
+        (Trainer::for_dataset(config, &dataset, &data, device), 0.0)
     };
     let config_text = toml::to_string(&trainer.config)?;
-    write_text(&args.output.join("config.toml"), &config_text)?;
+    super::write_text(&args.output.join("config.toml"), &config_text)?;
 
-    let load_start = Instant::now();
-    let data = ImageSet::load(frames).context("loading training images")?;
     let (lo, hi) = trainer.grid.bounds();
     tracing::info!(
         "{} training views loaded in {:.1} s; box {:?}..{:?}; {} steps of {} samples",
@@ -194,12 +190,4 @@ fn open_log(path: &PathBuf, append: bool) -> anyhow::Result<std::io::BufWriter<s
         writeln!(w, "step,seconds,loss,batch_psnr,rays,samples,samples_per_second,learning_rate,occupied_fraction")?;
     }
     Ok(w)
-}
-
-/// Writes a text file atomically.
-pub fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
-    lucid_image::io::write_atomically(path, |w| {
-        w.write_all(text.as_bytes()).map_err(|source| lucid_image::ImageError::Io { path: path.to_path_buf(), source })
-    })
-    .with_context(|| path.display().to_string())
 }

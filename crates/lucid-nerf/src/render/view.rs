@@ -31,6 +31,20 @@ pub struct RenderedView {
     pub samples: usize,
 }
 
+impl RenderedView {
+    /// The colour as opaque linear RGB, for the image writers (which encode sRGB themselves).
+    pub fn linear_colour(&self) -> Image {
+        use lucid_image::color::srgb_decode;
+        self.colour.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0])
+    }
+
+    /// The depth as an image (the same value in every channel, for single-channel EXR).
+    pub fn depth_image(&self) -> Image {
+        let (w, h) = self.colour.dimensions();
+        Image::from_pixels(w, h, self.depth.iter().map(|&d| [d, d, d, 1.0]).collect())
+    }
+}
+
 /// What renders a view.
 pub struct ViewRenderer<'a> {
     /// The model.
