@@ -98,3 +98,15 @@ pub fn files_under(dir: &Path) -> Vec<String> {
 pub fn temp_dir() -> tempfile::TempDir {
     tempfile::tempdir().expect("temporary folder")
 }
+
+/// The given columns of every data row of a CSV file, joined by commas (for comparing the
+/// deterministic part of training logs; times and rates vary between runs).
+pub fn csv_columns(path: &Path, columns: &[usize]) -> Vec<String> {
+    let csv = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            l.split(',').enumerate().filter(|(i, _)| columns.contains(i)).map(|(_, v)| v).collect::<Vec<_>>().join(",")
+        })
+        .collect()
+}

@@ -36,18 +36,7 @@ fn metrics(dir: &Path, out: &str) -> serde_json::Value {
 
 /// Loss per logged step, the deterministic part of the CSV (time and rates vary).
 fn losses(dir: &Path, out: &str) -> Vec<String> {
-    let csv = std::fs::read_to_string(dir.join(out).join("train_log.csv")).unwrap();
-    csv.lines()
-        .skip(1)
-        .map(|l| {
-            l.split(',')
-                .enumerate()
-                .filter(|(i, _)| [0, 2, 3, 4, 5].contains(i))
-                .map(|(_, v)| v)
-                .collect::<Vec<_>>()
-                .join(",")
-        })
-        .collect()
+    lucid_tests::csv_columns(&dir.join(out).join("train_log.csv"), &[0, 2, 3, 4, 5])
 }
 
 #[test]

@@ -6,8 +6,7 @@
 //! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`). Written to a
 //! temporary name and renamed, so a crash never leaves a torn file under the real name.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use burn::module::Module;
 use burn::store::ModuleRecord;
@@ -15,37 +14,17 @@ use burn::tensor::{Bytes, Device};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+pub use lucid_burn::checkpoint::{CheckpointError, is_checkpoint, read_kind};
+use lucid_burn::checkpoint::{invalid, read_kind_sections, write_sections};
+
 use crate::config::NerfConfig;
 use crate::data::ViewInfo;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 use crate::trainer::{Trainer, optimizer};
 
-const MAGIC: &[u8; 8] = b"LUCIDCKP";
-const VERSION: u32 = 1;
 /// The kind this module reads and writes.
 pub const NERF_KIND: &str = "nerf";
-
-/// Why a checkpoint could not be read or written; each message names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum CheckpointError {
-    /// The OS refused.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// Not a checkpoint, or one of another kind or version, or damaged.
-    #[error("{}: {reason}", path.display())]
-    Invalid {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        reason: String,
-    },
-}
 
 /// The JSON header.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -69,62 +48,8 @@ pub struct CheckpointHeader {
     pub view: ViewInfo,
 }
 
-/// Whether `path` starts like a Lucid checkpoint (any kind).
-pub fn is_checkpoint(path: &Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok() && &magic == MAGIC
-}
-
-/// Peeks at a checkpoint's kind without loading it.
-pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
-    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.into(), source })?;
-    let header: serde_json::Value = parse(path, &bytes)?.0;
-    Ok(header.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown").to_string())
-}
-
-fn invalid(path: &Path, reason: impl Into<String>) -> CheckpointError {
-    CheckpointError::Invalid { path: path.into(), reason: reason.into() }
-}
-
-/// Splits a checkpoint into its JSON header and the remaining sections.
-fn parse<'a, H: serde::de::DeserializeOwned>(
-    path: &Path,
-    bytes: &'a [u8],
-) -> Result<(H, Vec<&'a [u8]>), CheckpointError> {
-    if bytes.len() < 12 || &bytes[..8] != MAGIC {
-        return Err(invalid(path, "not a Lucid checkpoint (bad magic)"));
-    }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(invalid(path, format!("checkpoint format version {version}, this build reads {VERSION}")));
-    }
-    let mut rest = &bytes[12..];
-    let mut sections = Vec::new();
-    while !rest.is_empty() {
-        if rest.len() < 8 {
-            return Err(invalid(path, "truncated (a section length is cut off)"));
-        }
-        let len = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes")) as usize;
-        if rest.len() - 8 < len {
-            return Err(invalid(
-                path,
-                format!("truncated (section {} needs {len} bytes, {} left)", sections.len(), rest.len() - 8),
-            ));
-        }
-        sections.push(&rest[8..8 + len]);
-        rest = &rest[8 + len..];
-    }
-    let Some((head, tail)) = sections.split_first() else {
-        return Err(invalid(path, "truncated (no header)"));
-    };
-    let header = serde_json::from_slice(head).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
-    Ok((header, tail.to_vec()))
-}
-
 /// Saves a trainer's full state to `path`.
 pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), CheckpointError> {
-    let io = |source| CheckpointError::Io { path: path.into(), source };
     let (lo, hi) = trainer.grid.bounds();
     let header = CheckpointHeader {
         kind: NERF_KIND.into(),
@@ -141,26 +66,7 @@ pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), Checkpoi
     let optim = trainer.optimizer.into_bytes().map_err(|e| invalid(path, e.to_string()))?;
     let thickness: Vec<u8> = trainer.grid.thickness().iter().flat_map(|v| v.to_le_bytes()).collect();
     let bits: Vec<u8> = trainer.grid.bits().iter().flat_map(|v| v.to_le_bytes()).collect();
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp-{}",
-        path.file_name().and_then(|n| n.to_str()).unwrap_or("checkpoint"),
-        std::process::id()
-    ));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        f.write_all(MAGIC)?;
-        f.write_all(&VERSION.to_le_bytes())?;
-        for section in [&header[..], &model[..], &optim[..], &thickness[..], &bits[..]] {
-            f.write_all(&(section.len() as u64).to_le_bytes())?;
-            f.write_all(section)?;
-        }
-        f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
-    })
+    write_sections(path, &[&header[..], &model[..], &optim[..], &thickness[..], &bits[..]])
 }
 
 /// A loaded checkpoint.
@@ -173,16 +79,11 @@ pub struct Loaded {
 
 /// Loads a NeRF checkpoint onto `device` (use the autodiff device to continue training).
 pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
-    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.into(), source })?;
-    let (value, sections): (serde_json::Value, _) = parse(path, &bytes)?;
-    let kind = value.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown");
-    if kind != NERF_KIND {
-        return Err(invalid(path, format!("a '{kind}' checkpoint, expected a '{NERF_KIND}' one")));
-    }
+    let (value, sections) = read_kind_sections(path, NERF_KIND)?;
     let header: CheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
     header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
-    let [model, optim, thickness, bits] = sections[..] else {
+    let [model, optim, thickness, bits] = &sections[..] else {
         return Err(invalid(path, format!("expected 5 sections, found {}", sections.len() + 1)));
     };
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))

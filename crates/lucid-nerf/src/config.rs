@@ -4,6 +4,9 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use lucid_burn::config::{Background, toml_error};
+use lucid_burn::config::{non_negative, parse_config, positive};
+
 use crate::field::FieldConfig;
 use crate::render::march::MarchSettings;
 
@@ -53,19 +56,6 @@ impl Default for OccupancyConfig {
             sample_fraction: 0.0625,
         }
     }
-}
-
-/// Background colour behind the scene.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Background {
-    /// White (the NeRF-synthetic evaluation convention).
-    White,
-    /// Black.
-    Black,
-    /// A random colour per ray and step (training only): the model cannot hide the
-    /// background in the scene, so it learns true transparency.
-    Random,
 }
 
 /// The training loss on colours.
@@ -146,9 +136,7 @@ impl Default for TrainConfig {
 impl NerfConfig {
     /// Parses TOML text; `origin` names the file in messages.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, String> {
-        let config: Self = toml::from_str(text).map_err(|e| format!("{origin}: {}", toml_error(text, &e)))?;
-        config.validate().map_err(|e| format!("{origin}: {e}"))?;
-        Ok(config)
+        parse_config(text, origin, Self::validate)
     }
 
     /// Checks every value; the message names the key.
@@ -175,25 +163,16 @@ impl NerfConfig {
         if t.steps == 0 {
             return Err("train.steps must be at least 1".into());
         }
-        if !(t.time_limit.is_finite() && t.time_limit >= 0.0) {
-            return Err(format!("train.time_limit must be zero or positive, got {}", t.time_limit));
-        }
+        non_negative("train.time_limit", t.time_limit)?;
         if !(1024..=1 << 22).contains(&t.batch_samples) {
             return Err(format!("train.batch_samples must be in 1024..=4194304, got {}", t.batch_samples));
         }
         if !(1..=1 << 20).contains(&t.initial_rays) {
             return Err(format!("train.initial_rays must be in 1..=1048576, got {}", t.initial_rays));
         }
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("train.{name} must be a positive number, got {v}"))
-            }
-        };
-        positive("learning_rate", t.learning_rate)?;
-        positive("final_learning_rate", t.final_learning_rate)?;
-        positive("epsilon", t.epsilon as f64)?;
+        positive("train.learning_rate", t.learning_rate)?;
+        positive("train.final_learning_rate", t.final_learning_rate)?;
+        positive("train.epsilon", t.epsilon as f64)?;
         for (name, b) in [("beta1", t.beta1), ("beta2", t.beta2)] {
             if !(b.is_finite() && (0.0..1.0).contains(&b)) {
                 return Err(format!("train.{name} must be in [0, 1), got {b}"));
@@ -212,18 +191,6 @@ impl NerfConfig {
             return Err("train.log_every must be at least 1".into());
         }
         Ok(())
-    }
-}
-
-/// A TOML error on one line: the message and where it is.
-pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
-    let message = e.message().trim().replace('\n', " ");
-    match e.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {message}")
-        }
-        None => message,
     }
 }
 

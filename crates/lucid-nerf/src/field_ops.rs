@@ -18,8 +18,8 @@ use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extensi
 use burn::tensor::{Tensor, TensorData};
 
 use crate::field::FieldConfig;
-use crate::kernels::{constant, to_host};
 use crate::render::composite::{PackedSamples, RAY_OUTPUTS, composite_backward, composite_forward};
+use lucid_burn::{constant, to_host};
 
 /// Compositing parameters that travel with the op.
 #[derive(Clone, Debug)]
@@ -147,8 +147,8 @@ mod flex_impl {
     use burn::tensor::TensorData;
 
     use super::{CompositeArgs, FieldConfig, NerfOps};
-    use crate::kernels::flex_impl::values;
     use crate::render::composite::{RAY_OUTPUTS, composite_backward, composite_forward};
+    use lucid_burn::values;
 
     fn tensor<const N: usize>(v: Vec<f32>, shape: [usize; N]) -> FlexTensor {
         FlexTensor::from_data(TensorData::new(v, shape))

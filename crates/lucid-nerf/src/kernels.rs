@@ -15,6 +15,7 @@ use burn::backend::autodiff::grads::Gradients;
 use burn::backend::autodiff::ops::{Backward, Ops, OpsKind, unary};
 use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extension, tensor::FloatTensor};
 use burn::tensor::{Tensor, TensorData};
+use lucid_burn::{constant, to_host};
 
 use crate::encoding::hash_grid::HashGridConfig;
 
@@ -58,50 +59,14 @@ pub trait HashGridOps: Backend {
     }
 }
 
-/// Reads a float tensor to host memory as `f32` (the default bodies of our ops).
-pub(crate) fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {
-    let data = burn::tensor::try_read_sync(B::float_into_data(tensor))
-        .expect("a synchronous read is possible")
-        .expect("tensor data is readable");
-    data.try_into_vec_as::<f32>().expect("float data converts to f32")
-}
-
-/// Wraps a result that no backward pass flows through (gradients of gradients, densities
-/// for the occupancy grid) as an untracked autodiff tensor.
-pub(crate) fn constant<B: Backend, C: CheckpointStrategy>(t: FloatTensor<B>) -> FloatTensor<Autodiff<B, C>> {
-    #[derive(Debug)]
-    struct Constant;
-
-    impl<B: Backend> Backward<B, 0> for Constant {
-        type State = ();
-
-        fn backward(self, _ops: Ops<(), 0>, _grads: &mut Gradients, _checkpointer: &mut Checkpointer) {}
-    }
-
-    match Constant.prepare::<C>([]).compute_bound().stateful() {
-        OpsKind::Tracked(prep) => prep.finish((), t),
-        OpsKind::UnTracked(prep) => prep.finish(t),
-    }
-}
-
 #[cfg(feature = "flex")]
-pub(crate) mod flex_impl {
-    use std::borrow::Cow;
-
+mod flex_impl {
     use burn::backend::Flex;
     use burn::backend::flex::FlexTensor;
-    use burn::tensor::{DType, TensorData};
+    use burn::tensor::TensorData;
+    use lucid_burn::values;
 
     use super::{HashGridConfig, HashGridOps};
-
-    /// The tensor's `f32` values in row-major order, borrowed when already contiguous.
-    pub(crate) fn values(t: &FlexTensor) -> Cow<'_, [f32]> {
-        assert_eq!(t.dtype(), DType::F32, "NeRF kernels work on f32 tensors");
-        match t.as_slice::<f32>() {
-            Some(s) => Cow::Borrowed(s),
-            None => Cow::Owned(t.to_contiguous().as_slice::<f32>().expect("contiguous").to_vec()),
-        }
-    }
 
     impl HashGridOps for Flex {
         fn hash_grid_forward(positions: FlexTensor, table: FlexTensor, config: HashGridConfig) -> FlexTensor {

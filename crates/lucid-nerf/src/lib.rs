@@ -6,7 +6,8 @@
 //! Which backend runs is chosen by cargo feature ([`backend`]); trainer code only sees
 //! `burn::tensor::Device`.
 
-pub mod backend;
+pub use lucid_burn::backend;
+
 pub mod checkpoint;
 pub mod config;
 pub mod data;

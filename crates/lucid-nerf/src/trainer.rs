@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use burn::module::ParamGroup;
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer, decay::WeightDecayConfig};
+use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
 use lucid_scene::Dataset;
@@ -21,6 +21,7 @@ use crate::occupancy::OccupancyGrid;
 use crate::render::batch::march_rays;
 use crate::render::march::RayMarcher;
 use crate::render::view::ViewRenderer;
+use lucid_burn::FusedAdam;
 
 /// Huber loss threshold.
 const HUBER_DELTA: f32 = 0.1;
@@ -106,12 +107,13 @@ pub struct Trainer {
     device: Device,
 }
 
-/// burn's Adam with the configured betas and ε; weight decay on the MLP weights only.
+/// Adam with the configured betas and ε ([`FusedAdam`], burn's update in one pass) in
+/// burn's module optimiser; weight decay on the MLP weights only.
 pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     let t = &config.train;
-    let adam = AdamConfig::new().with_beta_1(t.beta1).with_beta_2(t.beta2).with_epsilon(t.epsilon);
-    let mlp = adam.clone().with_weight_decay(Some(WeightDecayConfig::new(t.weight_decay))).build();
-    adam.init().with_group(ParamGroup::from_path("mlp"), mlp, None)
+    let adam = FusedAdam { beta1: t.beta1, beta2: t.beta2, epsilon: t.epsilon, weight_decay: 0.0 };
+    let mlp = FusedAdam { weight_decay: t.weight_decay, ..adam.clone() };
+    ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
 impl Trainer {

@@ -8,10 +8,11 @@
 //!   the focal length in pixels is `f = 0.5·W / tan(0.5·camera_angle_x)`.
 //!
 //! The [`dataset`] module reads and writes the NeRF-synthetic / instant-ngp
-//! `transforms_*.json` layout.
+//! `transforms_*.json` layout; [`evaluation`] scores any trained model on its held-out views.
 
 pub mod camera;
 pub mod dataset;
+pub mod evaluation;
 pub mod ray;
 pub mod sampling;
 

@@ -45,6 +45,13 @@ impl Rng {
     pub fn uniform2(&mut self) -> Vec2 {
         Vec2::new(self.uniform(), self.uniform())
     }
+
+    /// Standard normal (Box–Muller; one of the pair is used, keeping the stream simple).
+    pub fn normal(&mut self) -> f32 {
+        let u1 = 1.0 - self.uniform(); // (0, 1]: the log stays finite
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
+    }
 }
 
 /// SplitMix64 finaliser: spreads nearby seeds far apart.

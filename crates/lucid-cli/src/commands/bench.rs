@@ -22,6 +22,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
+        BenchTarget::Splat => super::bench_splat::run(super::bench_splat::SplatBench {
+            dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
+            quick: args.quick,
+            overrides: args.overrides.clone(),
+            curve_views: args.curve_views,
+        })?,
     };
     if let Some(path) = &args.json {
         super::write_text(path, &serde_json::to_string_pretty(&result)?)?;

@@ -29,7 +29,7 @@ pub struct NerfBench {
 }
 
 /// Renders the benchmark dataset if it is not complete yet (generation resumes).
-fn ensure_dataset(root: &Path, quick: bool) -> anyhow::Result<()> {
+pub fn ensure_dataset(root: &Path, quick: bool) -> anyhow::Result<()> {
     let (size, counts, spp) = if quick { (48, [12, 0, 3], 8) } else { (200, [100, 0, 200], 32) };
     if Dataset::open(root)
         .is_ok_and(|d| d.frames(Split::Train).len() == counts[0] && d.frames(Split::Test).len() == counts[2])

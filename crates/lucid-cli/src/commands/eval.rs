@@ -6,13 +6,12 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use lucid_image::color::srgb_decode;
 use lucid_image::{Image, WriteOptions, write_image, write_image_with};
-use lucid_nerf::checkpoint;
-use lucid_nerf::data::ImageSet;
-use lucid_nerf::eval::evaluate;
-use lucid_nerf::trainer::Trainer;
+use lucid_scene::dataset::images::ImageSet;
+use lucid_scene::evaluation::{ViewModel, evaluate};
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
+use super::model::LoadedModel;
 use crate::cli::EvalArgs;
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
@@ -22,11 +21,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         "test" => Split::Test,
         other => bail!("--split must be train, val or test, got {other}"),
     };
-    let kind = checkpoint::read_kind(&args.checkpoint)?;
-    if kind != checkpoint::NERF_KIND {
-        bail!("{}: a '{kind}' checkpoint; lucid eval reads 'nerf' checkpoints", args.checkpoint.display());
-    }
-    let loaded = checkpoint::load(&args.checkpoint, &lucid_nerf::backend::default_device())?;
+    let loaded = LoadedModel::load(&args.checkpoint)?;
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if dataset.frames(split).is_empty() {
@@ -36,12 +31,17 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| args.checkpoint.parent().unwrap_or(Path::new(".")).join(format!("eval_{}", split.name())));
-    evaluate_checkpoint_state(&loaded.trainer, &dataset, split, args.limit, &out, args.json, args.pinhole)
+    loaded.with_renderer(|renderer| {
+        evaluate_model(renderer, loaded.step(), &dataset, split, args.limit, &out, args.json, args.pinhole)
+    })
 }
 
-/// Evaluates a trainer's model on a split, writing `out/` and printing the results.
-pub fn evaluate_checkpoint_state(
-    trainer: &Trainer,
+/// Evaluates a model (trained for `step` steps) on a split, writing `out/` and printing the
+/// results.
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_model(
+    renderer: &dyn ViewModel,
+    step: usize,
     dataset: &Dataset,
     split: Split,
     limit: Option<usize>,
@@ -56,11 +56,9 @@ pub fn evaluate_checkpoint_state(
         set.lenses.iter_mut().for_each(|l| *l = None);
     }
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let model = trainer.eval_model();
-    let renderer = trainer.renderer(&model);
     let bar = crate::progress::bar(set.len() as u64, "eval");
     let mut failure = None;
-    let (scores, summary) = evaluate(&renderer, &set, None, |i, view, truth, score| {
+    let (scores, summary) = evaluate(renderer, &set, None, |i, view, truth, score| {
         bar.inc(1);
         if failure.is_some() {
             return;
@@ -77,7 +75,7 @@ pub fn evaluate_checkpoint_state(
     }
     let report = json!({
         "split": split.name(),
-        "step": trainer.step,
+        "step": step,
         "summary": summary,
         "views": scores,
         "metric_space": "sRGB-encoded, composited on the background",
@@ -108,7 +106,7 @@ pub fn evaluate_checkpoint_state(
 fn write_view(
     out: &Path,
     stem: &str,
-    view: &lucid_nerf::render::view::RenderedView,
+    view: &lucid_scene::evaluation::RenderedView,
     truth: &Image,
 ) -> anyhow::Result<()> {
     // Renders are in sRGB-encoded space; the PNG writer encodes linear values, so decode.

@@ -2,17 +2,20 @@
 
 mod bench;
 mod bench_nerf;
+mod bench_splat;
 mod convert;
 pub mod demo;
 mod eval;
 pub mod generate;
 mod info;
 mod metrics;
+mod model;
 mod refocus;
 mod render;
 mod render_model;
 mod rig_file;
 mod train;
+mod train_splat;
 
 use anyhow::{Context, bail};
 

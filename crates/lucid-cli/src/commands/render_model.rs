@@ -7,9 +7,9 @@ use std::f32::consts::TAU;
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_image::{WriteOptions, write_image, write_image_with};
-use lucid_nerf::checkpoint;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
+use super::model::LoadedModel;
 use crate::cli::{CameraPathArg, RenderArgs};
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -21,13 +21,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--aperture must be zero or positive and --focus positive, got {a} and {f}");
     }
-    let kind = checkpoint::read_kind(&args.scene)?;
-    if kind != checkpoint::NERF_KIND {
-        bail!("{}: a '{kind}' checkpoint; lucid render reads 'nerf' checkpoints", args.scene.display());
-    }
-    let loaded = checkpoint::load(&args.scene, &lucid_nerf::backend::default_device())?;
-    let trainer = loaded.trainer;
-    let view = trainer.view;
+    let loaded = LoadedModel::load(&args.scene)?;
+    let view = loaded.view();
     let (w, h) = (args.width.unwrap_or(view.width), args.height.unwrap_or(view.height));
     if w == 0 || h == 0 {
         bail!("--width and --height must be positive");
@@ -36,30 +31,30 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !(radius.is_finite() && radius > 0.0) {
         bail!("--radius must be positive, got {radius}");
     }
-    let (lo, hi) = trainer.grid.bounds();
-    let centre = (lo + hi) * 0.5;
+    let centre = loaded.centre();
     let intrinsics = Intrinsics::from_fov_x(w, h, view.fov_x);
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let model = trainer.eval_model();
-    let renderer = trainer.renderer(&model);
     let lens = args.aperture.zip(args.focus);
     let bar = crate::progress::bar(args.frames as u64, "rendering");
     let started = std::time::Instant::now();
-    for k in 0..args.frames {
-        let u = k as f32 / args.frames as f32;
-        let (azimuth, elevation) = match args.path {
-            CameraPathArg::Orbit => (TAU * u, args.elevation),
-            CameraPathArg::Spiral => (2.0 * TAU * u, args.elevation + 20.0 * (TAU * u).sin()),
-        };
-        let e = elevation.to_radians();
-        let eye = centre + radius * Vec3::new(e.cos() * azimuth.cos(), e.cos() * azimuth.sin(), e.sin());
-        let camera = PinholeCamera::new(intrinsics, look_at(eye, centre, Vec3::Z));
-        let out = renderer.render_lens(&camera, lens, args.lens_rays, k as u64);
-        write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
-        let depth_options = WriteOptions { single_channel: true, ..Default::default() };
-        write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &out.depth_image(), depth_options)?;
-        bar.inc(1);
-    }
+    loaded.with_renderer(|renderer| -> anyhow::Result<()> {
+        for k in 0..args.frames {
+            let u = k as f32 / args.frames as f32;
+            let (azimuth, elevation) = match args.path {
+                CameraPathArg::Orbit => (TAU * u, args.elevation),
+                CameraPathArg::Spiral => (2.0 * TAU * u, args.elevation + 20.0 * (TAU * u).sin()),
+            };
+            let e = elevation.to_radians();
+            let eye = centre + radius * Vec3::new(e.cos() * azimuth.cos(), e.cos() * azimuth.sin(), e.sin());
+            let camera = PinholeCamera::new(intrinsics, look_at(eye, centre, Vec3::Z));
+            let out = renderer.render_view(&camera, lens, args.lens_rays, k as u64);
+            write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
+            let depth_options = WriteOptions { single_channel: true, ..Default::default() };
+            write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &out.depth_image(), depth_options)?;
+            bar.inc(1);
+        }
+        Ok(())
+    })?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
     println!(

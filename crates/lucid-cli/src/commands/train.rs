@@ -12,22 +12,18 @@ use lucid_nerf::data::ImageSet;
 use lucid_nerf::trainer::Trainer;
 use lucid_scene::{Dataset, Split};
 
-use crate::cli::{TrainArgs, TrainModel, TrainNerfArgs};
+use crate::cli::{TrainArgs, TrainModel, TrainModelArgs};
 
 pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     match args.model {
         TrainModel::Nerf(args) => nerf(args),
+        TrainModel::Splat(args) => super::train_splat::run(args),
     }
 }
 
-/// Reads the configuration file (or the defaults) and applies `--set` and the shortcuts.
-pub fn nerf_config(
-    file: Option<&Path>,
-    overrides: &[String],
-    steps: Option<usize>,
-    time_limit: Option<f64>,
-    seed: Option<u64>,
-) -> anyhow::Result<NerfConfig> {
+/// The configuration file's text (empty for the defaults) with the `--set KEY=VALUE`
+/// overrides applied, as TOML, and a description of where it came from for messages.
+pub fn config_text(file: Option<&Path>, overrides: &[String]) -> anyhow::Result<(String, String)> {
     let (text, origin) = match file {
         Some(path) => {
             (std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?, path.display().to_string())
@@ -55,7 +51,32 @@ pub fn nerf_config(
         table.insert(parts[parts.len() - 1].to_string(), parsed);
     }
     let origin = if overrides.is_empty() { origin } else { format!("{origin} with --set {}", overrides.join(" ")) };
-    let mut config = NerfConfig::from_toml(&toml::to_string(&value)?, &origin).map_err(anyhow::Error::msg)?;
+    Ok((toml::to_string(&value)?, origin))
+}
+
+/// The dataset, its training images and the checkpoint path in the (created) output folder.
+pub fn training_data(args: &TrainModelArgs) -> anyhow::Result<(Dataset, ImageSet, PathBuf)> {
+    let dataset =
+        Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    let frames = dataset.frames(Split::Train);
+    if frames.is_empty() {
+        bail!("{}: no training frames (transforms_train.json or transforms.json)", args.dataset.display());
+    }
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let data = ImageSet::load(frames).context("loading training images")?;
+    Ok((dataset, data, args.output.join("checkpoint.lucid")))
+}
+
+/// Reads the configuration file (or the defaults) and applies `--set` and the shortcuts.
+pub fn nerf_config(
+    file: Option<&Path>,
+    overrides: &[String],
+    steps: Option<usize>,
+    time_limit: Option<f64>,
+    seed: Option<u64>,
+) -> anyhow::Result<NerfConfig> {
+    let (text, origin) = config_text(file, overrides)?;
+    let mut config = NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     if let Some(s) = steps {
         config.train.steps = s;
     }
@@ -69,17 +90,9 @@ pub fn nerf_config(
     Ok(config)
 }
 
-fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
-    let dataset =
-        Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
-    let frames = dataset.frames(Split::Train);
-    if frames.is_empty() {
-        bail!("{}: no training frames (transforms_train.json or transforms.json)", args.dataset.display());
-    }
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let ckpt = args.output.join("checkpoint.lucid");
+fn nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     let load_start = Instant::now();
-    let data = ImageSet::load(frames).context("loading training images")?;
+    let (dataset, data, ckpt) = training_data(&args)?;
     let device = lucid_nerf::backend::training_device();
     let (mut trainer, mut elapsed) = if args.resume {
         let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
@@ -111,7 +124,11 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     );
 
     let log_path = args.output.join("train_log.csv");
-    let mut log = open_log(&log_path, args.resume)?;
+    let mut log = open_log(
+        &log_path,
+        args.resume,
+        "step,seconds,loss,batch_psnr,rays,samples,samples_per_second,learning_rate,occupied_fraction",
+    )?;
     let t = trainer.config.train;
     let bar = crate::progress::bar(t.steps as u64, "nerf");
     bar.set_position(trainer.step as u64);
@@ -163,8 +180,10 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     if args.until.is_some_and(|u| u < t.steps) {
         println!("stopped at step {} of {}; continue with --resume", trainer.step, t.steps);
     } else if !args.no_eval && !dataset.frames(Split::Test).is_empty() {
-        crate::commands::eval::evaluate_checkpoint_state(
-            &trainer,
+        let model = trainer.eval_model();
+        crate::commands::eval::evaluate_model(
+            &trainer.renderer(&model),
+            trainer.step,
             &dataset,
             Split::Test,
             None,
@@ -176,7 +195,7 @@ fn nerf(args: TrainNerfArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn open_log(path: &PathBuf, append: bool) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
+pub fn open_log(path: &PathBuf, append: bool, header: &str) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
     let exists = path.exists();
     let file = std::fs::OpenOptions::new()
         .create(true)
@@ -187,7 +206,7 @@ fn open_log(path: &PathBuf, append: bool) -> anyhow::Result<std::io::BufWriter<s
         .with_context(|| path.display().to_string())?;
     let mut w = std::io::BufWriter::new(file);
     if !(append && exists) {
-        writeln!(w, "step,seconds,loss,batch_psnr,rays,samples,samples_per_second,learning_rate,occupied_fraction")?;
+        writeln!(w, "{header}")?;
     }
     Ok(w)
 }

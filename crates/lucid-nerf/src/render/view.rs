@@ -7,6 +7,8 @@ use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
 use lucid_image::Image;
 use lucid_scene::camera::{Camera, PinholeCamera, ThinLensCamera};
+pub use lucid_scene::evaluation::RenderedView;
+use lucid_scene::evaluation::ViewModel;
 use lucid_scene::sampling::Rng;
 
 use super::batch::march_rays;
@@ -19,31 +21,6 @@ use crate::occupancy::OccupancyGrid;
 
 /// Rays per block: bounds the memory of one field evaluation.
 const BLOCK_RAYS: usize = 1 << 14;
-
-/// A rendered view: colour composited on the background, and expected depth and opacity.
-#[derive(Clone, Debug)]
-pub struct RenderedView {
-    /// Colour (sRGB-encoded, as trained) over the background; alpha is the opacity.
-    pub colour: Image,
-    /// Expected depth along the ray, divided by opacity (0 where nothing was hit).
-    pub depth: Vec<f32>,
-    /// Samples evaluated.
-    pub samples: usize,
-}
-
-impl RenderedView {
-    /// The colour as opaque linear RGB, for the image writers (which encode sRGB themselves).
-    pub fn linear_colour(&self) -> Image {
-        use lucid_image::color::srgb_decode;
-        self.colour.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0])
-    }
-
-    /// The depth as an image (the same value in every channel, for single-channel EXR).
-    pub fn depth_image(&self) -> Image {
-        let (w, h) = self.colour.dimensions();
-        Image::from_pixels(w, h, self.depth.iter().map(|&d| [d, d, d, 1.0]).collect())
-    }
-}
 
 /// What renders a view.
 pub struct ViewRenderer<'a> {
@@ -61,6 +38,22 @@ pub struct ViewRenderer<'a> {
     pub background: [f32; 3],
     /// Device of the model.
     pub device: Device,
+}
+
+impl ViewModel for ViewRenderer<'_> {
+    fn render_view(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        lens_rays: usize,
+        seed: u64,
+    ) -> RenderedView {
+        self.render_lens(camera, lens, lens_rays, seed)
+    }
+
+    fn background(&self) -> [f32; 3] {
+        self.background
+    }
 }
 
 impl ViewRenderer<'_> {

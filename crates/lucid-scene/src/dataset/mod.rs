@@ -21,6 +21,7 @@
 //! Intrinsics may also be given per frame (nerfstudio writes them so), overriding the
 //! file-level ones. Other tools ignore our extra keys; we ignore theirs.
 
+pub mod images;
 mod read;
 mod write;
 

@@ -1,0 +1,176 @@
+//! `lucid bench splat`: the 3DGS benchmark. Trains on the default `object` orbit set (the
+//! NeRF benchmark's dataset, 200×200, 100 training views) with the default configuration for
+//! a wall-clock budget, scoring held-out PSNR/SSIM at fixed times (30 s, 1, 2, 5, 10 min;
+//! evaluation not counted); then measures the rasterizer alone on a 100k-Gaussian cloud:
+//! forward+backward splat-pixel blends per second per core, and images per second at 200×200
+//! and 800×800.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use glam::Vec3;
+use lucid_scene::dataset::images::{ImageSet, scene_box};
+use lucid_scene::evaluation::{ViewScore, evaluate};
+use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
+use lucid_splat::trainer::{SplatTrainer, initial_cloud};
+use lucid_splat::view::SplatRenderer;
+use lucid_splat::{RenderSettings, SplatCamera, SplatCloud, render, render_backward};
+use serde_json::json;
+
+/// Options of the splat benchmark.
+pub struct SplatBench {
+    /// Dataset folder (generated there if missing).
+    pub dataset: PathBuf,
+    /// Smoke version: tiny dataset, 20 s of training, a small cloud.
+    pub quick: bool,
+    /// Configuration overrides (`--set`).
+    pub overrides: Vec<String>,
+    /// Test views scored at the intermediate points (all of them at the end).
+    pub curve_views: usize,
+}
+
+pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
+    super::bench_nerf::ensure_dataset(&bench.dataset, bench.quick)?;
+    let dataset = Dataset::open(&bench.dataset)?;
+    let train = ImageSet::load(dataset.frames(Split::Train))?;
+    let test = ImageSet::load(dataset.frames(Split::Test))?;
+    let (text, origin) = super::train::config_text(None, &bench.overrides)?;
+    let mut config = lucid_splat::config::SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
+    let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
+    let total = *budgets.last().expect("budgets");
+    config.train.time_limit = total;
+    let cloud = initial_cloud(&config, &dataset).map_err(anyhow::Error::msg)?;
+    let (lo, hi) = scene_box(&dataset);
+    let device = lucid_burn::backend::training_device();
+    let mut trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, device);
+
+    let curve_views = bench.curve_views.min(test.len()).max(1);
+    let mut curve = Vec::new();
+    let mut phases = [0.0f64; 4];
+    let mut trained = 0.0f64;
+    let bar = crate::progress::bar(total as u64, "splat bench");
+    let mut last_summary = None;
+    for &budget in &budgets {
+        while trained < budget && trainer.step < trainer.config.train.steps {
+            let t = Instant::now();
+            trainer.budget_progress = trained / total;
+            let stats = trainer.step(&train);
+            trained += t.elapsed().as_secs_f64();
+            for (p, s) in phases.iter_mut().zip(stats.timings) {
+                *p += s;
+            }
+            bar.set_position(trained as u64);
+        }
+        let last = budget == total;
+        let cloud = trainer.model.to_cloud();
+        let renderer = SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
+        let (scores, summary) =
+            evaluate(&renderer, &test, if last { None } else { Some(curve_views) }, |_, _, _, _| {});
+        let head = &scores[..curve_views.min(scores.len())];
+        let mean = |f: &dyn Fn(&ViewScore) -> f64| head.iter().map(f).sum::<f64>() / head.len() as f64;
+        curve.push(json!({
+            "seconds": trained, "step": trainer.step, "psnr": mean(&|v| v.psnr), "ssim": mean(&|v| v.ssim),
+            "views": head.len(), "gaussians": cloud.len(),
+        }));
+        if last {
+            last_summary = Some(summary);
+        }
+    }
+    bar.finish_and_clear();
+    let last = last_summary.expect("the last budget evaluates");
+    let raster = rasterizer_throughput(if bench.quick { 10_000 } else { 100_000 });
+
+    println!("lucid bench splat{}: object orbit set", if bench.quick { " --quick" } else { "" });
+    println!("{:>10} {:>7} {:>9} {:>8} {:>10}", "train (s)", "step", "PSNR", "SSIM", "Gaussians");
+    for p in &curve {
+        println!(
+            "{:>10.1} {:>7} {:>9.2} {:>8.4} {:>10}",
+            p["seconds"].as_f64().unwrap_or(0.0),
+            p["step"],
+            p["psnr"].as_f64().unwrap_or(0.0),
+            p["ssim"].as_f64().unwrap_or(0.0),
+            p["gaussians"]
+        );
+    }
+    println!("final: {} test views, PSNR {:.2} dB, SSIM {:.4}", last.views, last.psnr, last.ssim);
+    println!("render time per held-out view: {:.3} s", last.seconds_per_view);
+    let total_phase: f64 = phases.iter().sum::<f64>().max(1e-9);
+    let names = ["render", "loss_and_backward", "optimizer", "densify"];
+    println!(
+        "time per phase: {}",
+        names
+            .iter()
+            .zip(phases)
+            .map(|(n, t)| format!("{n} {:.0}%", 100.0 * t / total_phase))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
+        "rasterizer ({} Gaussians): {:.1} M blends/s/core forward+backward; {:.1} images/s at 200x200, {:.1} at 800x800",
+        raster["gaussians"],
+        raster["blends_per_second_per_core"].as_f64().unwrap_or(0.0) / 1e6,
+        raster["images_per_second_200"].as_f64().unwrap_or(0.0),
+        raster["images_per_second_800"].as_f64().unwrap_or(0.0)
+    );
+    Ok(json!({
+        "benchmark": "splat", "quick": bench.quick, "threads": rayon::current_num_threads(),
+        "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
+        "time_shares": names.iter().zip(phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
+        "rasterizer": raster, "config": trainer.config,
+    }))
+}
+
+/// A random cloud of `n` Gaussians in a 2-unit ball with trained-looking sizes, timed from a
+/// camera at distance 4: forward+backward blends per second per core, forward images per
+/// second at two resolutions.
+fn rasterizer_throughput(n: usize) -> serde_json::Value {
+    let mut rng = lucid_scene::sampling::Rng::new(11, 3);
+    let mut cloud = SplatCloud::default();
+    while cloud.len() < n {
+        let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0 - 1.0;
+        if p.length() <= 1.0 {
+            let colour = [rng.uniform(), rng.uniform(), rng.uniform()];
+            cloud.push(p, 0.005 + 0.02 * rng.uniform(), 0.2 + 0.6 * rng.uniform(), colour);
+        }
+    }
+    let settings = RenderSettings::default();
+    let camera = |size: u32| {
+        let k = Intrinsics::from_fov_x(size, size, 0.69);
+        SplatCamera::from_pinhole(&PinholeCamera::new(k, look_at(Vec3::new(0.0, -4.0, 1.0), Vec3::ZERO, Vec3::Z)))
+    };
+    let time = |f: &mut dyn FnMut()| {
+        f(); // warm up
+        let reps = 5;
+        let t = Instant::now();
+        for _ in 0..reps {
+            f();
+        }
+        t.elapsed().as_secs_f64() / reps as f64
+    };
+    let params = cloud.params();
+    let cam200 = camera(200);
+    let (_, state) = render(&params, &cam200, &settings);
+    let blends = state.pixels.blends;
+    let grad = vec![1e-3f32; 200 * 200 * 4];
+    let fwd_bwd = time(&mut || {
+        let (_, state) = render(&params, &cam200, &settings);
+        std::hint::black_box(render_backward(&params, &state, &grad));
+    });
+    let f200 = time(&mut || {
+        std::hint::black_box(render(&params, &cam200, &settings));
+    });
+    let cam800 = camera(800);
+    let f800 = time(&mut || {
+        std::hint::black_box(render(&params, &cam800, &settings));
+    });
+    let threads = rayon::current_num_threads() as f64;
+    json!({
+        "gaussians": n,
+        "blends_200": blends,
+        "forward_backward_seconds_200": fwd_bwd,
+        // Each blend is visited once forward and once backward.
+        "blends_per_second_per_core": blends as f64 / fwd_bwd / threads,
+        "images_per_second_200": 1.0 / f200,
+        "images_per_second_800": 1.0 / f800,
+    })
+}

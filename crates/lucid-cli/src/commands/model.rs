@@ -1,0 +1,76 @@
+//! Trained models of any kind behind one interface, so `lucid eval` and `lucid render` read
+//! every checkpoint the trainers write.
+
+use std::path::Path;
+
+use anyhow::bail;
+use glam::Vec3;
+use lucid_scene::dataset::images::ViewInfo;
+use lucid_scene::evaluation::ViewModel;
+use lucid_splat::view::SplatRenderer;
+
+/// A checkpoint, loaded for rendering.
+pub enum LoadedModel {
+    /// A hash-grid NeRF.
+    Nerf(Box<lucid_nerf::trainer::Trainer>),
+    /// A splat cloud.
+    Splat(Box<lucid_splat::trainer::SplatTrainer>),
+}
+
+impl LoadedModel {
+    /// Loads `path`, whatever kind it is.
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let kind = lucid_burn::checkpoint::read_kind(path)?;
+        let device = lucid_burn::backend::default_device();
+        Ok(match kind.as_str() {
+            lucid_nerf::checkpoint::NERF_KIND => {
+                Self::Nerf(Box::new(lucid_nerf::checkpoint::load(path, &device)?.trainer))
+            }
+            lucid_splat::checkpoint::SPLAT_KIND => {
+                Self::Splat(Box::new(lucid_splat::checkpoint::load(path, &device)?.trainer))
+            }
+            other => bail!("{}: a '{other}' checkpoint; this build reads 'nerf' and 'splat' ones", path.display()),
+        })
+    }
+
+    /// Training steps taken.
+    pub fn step(&self) -> usize {
+        match self {
+            Self::Nerf(t) => t.step,
+            Self::Splat(t) => t.step,
+        }
+    }
+
+    /// How the training cameras saw the scene.
+    pub fn view(&self) -> ViewInfo {
+        match self {
+            Self::Nerf(t) => t.view,
+            Self::Splat(t) => t.view,
+        }
+    }
+
+    /// The centre of the scene (the target of orbit paths).
+    pub fn centre(&self) -> Vec3 {
+        match self {
+            Self::Nerf(t) => {
+                let (lo, hi) = t.grid.bounds();
+                (lo + hi) * 0.5
+            }
+            Self::Splat(t) => t.centre,
+        }
+    }
+
+    /// Runs `f` with a renderer of the model.
+    pub fn with_renderer<R>(&self, f: impl FnOnce(&dyn ViewModel) -> R) -> R {
+        match self {
+            Self::Nerf(t) => {
+                let model = t.eval_model();
+                f(&t.renderer(&model))
+            }
+            Self::Splat(t) => {
+                let cloud = t.model.to_cloud();
+                f(&SplatRenderer { cloud: &cloud, settings: t.eval_settings() })
+            }
+        }
+    }
+}

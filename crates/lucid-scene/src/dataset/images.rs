@@ -1,0 +1,115 @@
+//! Training and evaluation images in memory, with their cameras and the scene box (shared by
+//! every trainer).
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use lucid_image::color::srgb_encode;
+
+use super::{Dataset, Frame, SceneBounds};
+use crate::camera::PinholeCamera;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Images of one split: colours sRGB-encoded in `[0,1]` (the space NeRFs and splats are
+/// trained and scored in) with straight alpha.
+#[derive(Clone, Debug)]
+pub struct ImageSet {
+    /// Camera of each image.
+    pub cameras: Vec<PinholeCamera>,
+    /// Pixels of each image, row-major, `[r, g, b, a]`.
+    pub pixels: Vec<Vec<[f32; 4]>>,
+    /// Source file of each image.
+    pub paths: Vec<PathBuf>,
+    /// Thin lens of each view, `(aperture radius, focus distance)`, where the dataset gives
+    /// one (e.g. the light-field rig's refocused ground truths).
+    pub lenses: Vec<Option<(f32, f32)>>,
+}
+
+impl ImageSet {
+    /// Reads the frames' images in parallel. HDR files are clipped to `[0,1]` after encoding.
+    pub fn load(frames: &[Frame]) -> Result<Self, lucid_image::ImageError> {
+        let images: Vec<_> = frames.par_iter().map(|f| lucid_image::read_image(&f.image_path)).collect();
+        let mut set = Self { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
+        for (frame, image) in frames.iter().zip(images) {
+            let image = image?;
+            let pixels = image
+                .pixels()
+                .iter()
+                .map(|p| {
+                    let e = |v: f32| srgb_encode(v.max(0.0)).min(1.0);
+                    [e(p[0]), e(p[1]), e(p[2]), p[3].clamp(0.0, 1.0)]
+                })
+                .collect();
+            set.cameras.push(frame.camera);
+            set.pixels.push(pixels);
+            set.paths.push(frame.image_path.clone());
+            let lens = frame.extras.aperture_radius.zip(frame.extras.focus_distance);
+            set.lenses.push(lens.filter(|(a, f)| *a > 0.0 && *f > 0.0));
+        }
+        Ok(set)
+    }
+
+    /// Number of images.
+    pub fn len(&self) -> usize {
+        self.cameras.len()
+    }
+
+    /// Whether there are no images.
+    pub fn is_empty(&self) -> bool {
+        self.cameras.is_empty()
+    }
+
+    /// `(width, height)` of image `i`.
+    pub fn size(&self, i: usize) -> (usize, usize) {
+        let k = &self.cameras[i].intrinsics;
+        (k.width as usize, k.height as usize)
+    }
+
+    /// The mean angular size of a pixel, `1/f`, over the cameras.
+    pub fn pixel_angle(&self) -> f32 {
+        let sum: f32 = self.cameras.iter().map(|c| 1.0 / c.intrinsics.fx).sum();
+        sum / self.cameras.len().max(1) as f32
+    }
+}
+
+/// How the training cameras saw the scene: the defaults of novel-view paths.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewInfo {
+    /// Mean distance of the cameras from the centre of the scene box.
+    pub radius: f32,
+    /// Image width of the first camera.
+    pub width: u32,
+    /// Image height of the first camera.
+    pub height: u32,
+    /// Horizontal field of view of the first camera (radians).
+    pub fov_x: f32,
+}
+
+impl Default for ViewInfo {
+    fn default() -> Self {
+        Self { radius: 4.0, width: 200, height: 200, fov_x: 40f32.to_radians() }
+    }
+}
+
+impl ViewInfo {
+    /// From a set of cameras around `centre`.
+    pub fn from_cameras(cameras: &[PinholeCamera], centre: Vec3) -> Self {
+        let Some(first) = cameras.first() else { return Self::default() };
+        let radius = cameras.iter().map(|c| (c.position() - centre).length()).sum::<f32>() / cameras.len() as f32;
+        let k = first.intrinsics;
+        Self { radius, width: k.width, height: k.height, fov_x: k.fov_x() }
+    }
+}
+
+/// The box the field lives in: the dataset's `aabb`, or instant-ngp's `aabb_scale` (its unit
+/// cube spans `[-1.5, 1.5]³` of NeRF-synthetic world space), or that cube when the dataset
+/// says nothing.
+pub fn scene_box(dataset: &Dataset) -> (Vec3, Vec3) {
+    let bounds = dataset.splits.iter().find_map(|s| s.bounds);
+    match bounds {
+        Some(SceneBounds::Box { min, max }) => (min, max),
+        Some(SceneBounds::AabbScale(s)) => (Vec3::splat(-1.5 * s), Vec3::splat(1.5 * s)),
+        None => (Vec3::splat(-1.5), Vec3::splat(1.5)),
+    }
+}

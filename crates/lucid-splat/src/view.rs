@@ -1,0 +1,83 @@
+//! Rendering whole views of a trained cloud for evaluation and novel-view paths: pinhole, or
+//! a thin lens by averaging renders from points on the aperture (each an off-axis pinhole
+//! whose principal point is shifted so that the plane of focus stays put).
+
+use glam::{Mat4, Vec3};
+use lucid_image::Image;
+use lucid_scene::camera::PinholeCamera;
+use lucid_scene::evaluation::{RenderedView, ViewModel};
+use lucid_scene::sampling::{Rng, concentric_disk};
+
+use crate::camera::SplatCamera;
+use crate::cloud::SplatCloud;
+use crate::project::RenderSettings;
+use crate::render::render;
+
+/// A cloud with the settings to render it.
+pub struct SplatRenderer<'a> {
+    /// The Gaussians.
+    pub cloud: &'a SplatCloud,
+    /// Projection, SH degree and background.
+    pub settings: RenderSettings,
+}
+
+impl SplatRenderer<'_> {
+    /// `RGBA` (colour over the background, alpha) and expected depth of one pinhole view.
+    fn render_pinhole(&self, camera: &PinholeCamera) -> (Vec<f32>, Vec<f32>) {
+        let (image, state) = render(&self.cloud.params(), &SplatCamera::from_pinhole(camera), &self.settings);
+        (image, state.pixels.depth)
+    }
+}
+
+/// The pinhole through lens point `(ox, oy)` (camera units, +y up) of a thin lens focused at
+/// `focus`: moved on the lens plane, principal point shifted to keep the focus plane fixed.
+pub fn lens_pinhole(camera: &PinholeCamera, ox: f32, oy: f32, focus: f32) -> PinholeCamera {
+    let mut k = camera.intrinsics;
+    k.cx += k.fx * ox / focus;
+    k.cy -= k.fy * oy / focus;
+    let pose = camera.camera_to_world * Mat4::from_translation(Vec3::new(ox, oy, 0.0));
+    PinholeCamera::new(k, pose)
+}
+
+impl ViewModel for SplatRenderer<'_> {
+    fn render_view(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        lens_rays: usize,
+        seed: u64,
+    ) -> RenderedView {
+        let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
+        let passes = if lens.is_some() { lens_rays.max(1) } else { 1 };
+        let side = (passes as f32).sqrt().ceil() as usize;
+        let mut acc = vec![0.0f32; w * h * 4];
+        let mut depth = vec![0.0f32; w * h];
+        for k in 0..passes {
+            let cam = match lens {
+                Some((aperture, focus)) => {
+                    // Stratified over the lens, as the NeRF renderer does.
+                    let mut rng = Rng::new(seed, k as u64);
+                    let cell = glam::Vec2::new((k % side) as f32, (k / side) as f32);
+                    let u = (cell + glam::Vec2::new(rng.uniform(), rng.uniform())) / side as f32;
+                    let d = concentric_disk(u) * aperture;
+                    lens_pinhole(camera, d.x, d.y, focus)
+                }
+                None => *camera,
+            };
+            let (image, z) = self.render_pinhole(&cam);
+            for (a, v) in acc.iter_mut().zip(&image) {
+                *a += v / passes as f32;
+            }
+            for (a, v) in depth.iter_mut().zip(&z) {
+                *a += v / passes as f32;
+            }
+        }
+        let pixels: Vec<[f32; 4]> = acc.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+        let depth = pixels.iter().zip(&depth).map(|(p, d)| if p[3] > 1e-3 { d / p[3] } else { 0.0 }).collect();
+        RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples: self.cloud.len() }
+    }
+
+    fn background(&self) -> [f32; 3] {
+        self.settings.background
+    }
+}
