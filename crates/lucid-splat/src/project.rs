@@ -110,8 +110,13 @@ pub struct ProjectedSplat {
     pub opacity: f32,
     /// RGB.
     pub colour: [f32; 3],
-    /// 3σ extent in pixels along the major axis.
+    /// 3σ extent in pixels along the major axis (the screen size densification limits).
     pub radius: f32,
+    /// Half-widths in pixels of the box outside which the splat's weight is below the blend
+    /// threshold or beyond `extent_sigmas` (the smaller): the pixels it can touch.
+    pub half_extent: Vec2,
+    /// `ln(min_alpha / opacity)`: exponents below it blend nothing (skips the `exp`).
+    pub log_cutoff: f32,
 }
 
 /// `∂loss/∂` the screen-space quantities of one Gaussian.
@@ -215,6 +220,20 @@ fn forward(p: &SplatParams, i: usize, cam: &SplatCamera, s: &RenderSettings) -> 
     let mid = 0.5 * (cov[0] + cov[2]);
     let lambda = mid + (mid * mid - det).max(0.1).sqrt();
     let radius = (s.extent_sigmas * lambda.sqrt()).ceil();
+    let opacity = sigmoid(p.opacities[i]);
+    // Mahalanobis radius² at which the weight falls to the blend threshold, capped at the
+    // footprint's extent; the box around that ellipse bounds every pixel the splat touches.
+    let reach2 = (2.0 * (opacity / s.min_alpha).ln()).min(s.extent_sigmas * s.extent_sigmas);
+    if reach2.is_nan() || reach2 <= 0.0 {
+        return None;
+    }
+    let half_extent = Vec2::new((reach2 * cov[0]).sqrt(), (reach2 * cov[2]).sqrt());
+    let centre = Vec2::new(cam.cx + cam.fx * view.x / z, cam.cy + cam.fy * view.y / z);
+    // Off-screen: no pixel centre within reach (before the colour, the costly part).
+    let size = Vec2::new(cam.width as f32, cam.height as f32);
+    if (centre + half_extent).cmplt(Vec2::splat(0.5)).any() || (centre - half_extent).cmpgt(size - 0.5).any() {
+        return None;
+    }
 
     let d = mean - cam.position;
     let dir_len = d.length();
@@ -225,14 +244,15 @@ fn forward(p: &SplatParams, i: usize, cam: &SplatCamera, s: &RenderSettings) -> 
         raw_colour += *y * p.coeff(i, k);
     }
     let colour = raw_colour.max(Vec3::ZERO);
-    let opacity = sigmoid(p.opacities[i]);
     let out = ProjectedSplat {
-        mean: Vec2::new(cam.cx + cam.fx * view.x / z, cam.cy + cam.fy * view.y / z),
+        mean: centre,
         conic,
         depth: z,
         opacity,
         colour: colour.to_array(),
         radius,
+        half_extent,
+        log_cutoff: (s.min_alpha / opacity).ln(),
     };
     Some(Forward {
         view,

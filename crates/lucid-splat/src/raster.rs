@@ -41,19 +41,43 @@ impl TileBins {
     }
 }
 
-/// The tiles a splat's 3σ square touches, as `[x0, x1) × [y0, y1)`; empty if off-screen.
+/// The pixels a splat can touch along one axis, `[first, last]` (may be empty or off-image):
+/// pixel `i` (centre `i + 0.5`) is in reach when `|i + 0.5 − mean| ≤ half`.
+fn pixel_span(mean: f32, half: f32) -> (i64, i64) {
+    ((mean - half - 0.5).ceil() as i64, (mean + half - 0.5).floor() as i64)
+}
+
+/// The tiles a splat's pixel box touches, as `[x0, x1) × [y0, y1)`; empty if off-screen.
 fn tile_rect(s: &ProjectedSplat, tiles_x: usize, tiles_y: usize) -> (usize, usize, usize, usize) {
     if s.radius <= 0.0 {
         return (0, 0, 0, 0);
     }
-    let t = TILE as f32;
-    let clampx = |v: f32| (v.max(0.0) as usize).min(tiles_x);
-    let clampy = |v: f32| (v.max(0.0) as usize).min(tiles_y);
-    // Pixel centres sit at +0.5: pixel i is touched when |i + 0.5 − mean| ≤ radius.
-    let x0 = clampx(((s.mean.x - s.radius - 0.5) / t).floor());
-    let x1 = clampx(((s.mean.x + s.radius - 0.5) / t).floor() + 1.0);
-    let y0 = clampy(((s.mean.y - s.radius - 0.5) / t).floor());
-    let y1 = clampy(((s.mean.y + s.radius - 0.5) / t).floor() + 1.0);
+    let t = TILE as i64;
+    let span = |mean: f32, half: f32, tiles: usize| {
+        let (a, b) = pixel_span(mean, half);
+        if b < a || b < 0 {
+            return (0, 0);
+        }
+        ((a.max(0) / t).min(tiles as i64) as usize, ((b / t) + 1).clamp(0, tiles as i64) as usize)
+    };
+    let (x0, x1) = span(s.mean.x, s.half_extent.x, tiles_x);
+    let (y0, y1) = span(s.mean.y, s.half_extent.y, tiles_y);
+    if x0 >= x1 || y0 >= y1 {
+        return (0, 0, 0, 0);
+    }
+    (x0, x1, y0, y1)
+}
+
+/// The splat's pixel box inside tile `(tx, ty)`, in tile-local coordinates `[x0, x1) × [y0, y1)`.
+#[inline]
+fn local_rect(s: &ProjectedSplat, tx: usize, ty: usize) -> (usize, usize, usize, usize) {
+    let clip = |mean: f32, half: f32, origin: usize| {
+        let (a, b) = pixel_span(mean, half);
+        let (a, b) = (a - origin as i64, b - origin as i64 + 1);
+        (a.clamp(0, TILE as i64) as usize, b.clamp(0, TILE as i64) as usize)
+    };
+    let (x0, x1) = clip(s.mean.x, s.half_extent.x, tx * TILE);
+    let (y0, y1) = clip(s.mean.y, s.half_extent.y, ty * TILE);
     (x0, x1, y0, y1)
 }
 
@@ -151,36 +175,42 @@ pub fn rasterize(
                     n_done += 1;
                 }
             }
+            let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
             for (j, s) in local.iter().enumerate() {
                 if n_done == TILE_PIXELS {
                     break;
                 }
-                for k in 0..TILE_PIXELS {
-                    if done[k] {
-                        continue;
+                let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+                for ly in y0..y1 {
+                    for lx in x0..x1 {
+                        let k = ly * TILE + lx;
+                        if done[k] {
+                            continue;
+                        }
+                        let p = Vec2::new((tx * TILE + lx) as f32 + 0.5, (ty * TILE + ly) as f32 + 0.5);
+                        let (pw, _, _) = power(s, p);
+                        if pw > 0.0 || pw < s.log_cutoff {
+                            continue;
+                        }
+                        let alpha = (s.opacity * pw.exp()).min(MAX_ALPHA);
+                        if alpha < min_alpha {
+                            continue;
+                        }
+                        let next = trans[k] * (1.0 - alpha);
+                        if next < MIN_TRANSMITTANCE {
+                            done[k] = true;
+                            n_done += 1;
+                            continue;
+                        }
+                        let w = alpha * trans[k];
+                        for (acc, c) in colour[k].iter_mut().zip(s.colour) {
+                            *acc += c * w;
+                        }
+                        depth[k] += s.depth * w;
+                        blends += 1;
+                        trans[k] = next;
+                        last[k] = j as u32 + 1;
                     }
-                    let (pw, _, _) = power(s, pixels[k].expect("live pixel").1);
-                    if pw > 0.0 {
-                        continue;
-                    }
-                    let alpha = (s.opacity * pw.exp()).min(MAX_ALPHA);
-                    if alpha < min_alpha {
-                        continue;
-                    }
-                    let next = trans[k] * (1.0 - alpha);
-                    if next < MIN_TRANSMITTANCE {
-                        done[k] = true;
-                        n_done += 1;
-                        continue;
-                    }
-                    let w = alpha * trans[k];
-                    for (acc, c) in colour[k].iter_mut().zip(s.colour) {
-                        *acc += c * w;
-                    }
-                    depth[k] += s.depth * w;
-                    blends += 1;
-                    trans[k] = next;
-                    last[k] = j as u32 + 1;
                 }
             }
             (pixels, trans, colour, last, depth, blends)
@@ -249,45 +279,50 @@ pub fn rasterize_backward(
                     behind[k][c] = t_final[k] * background[c];
                 }
             }
+            let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
             for j in (0..max_contrib).rev() {
                 let s = &local[j];
                 let mut acc = ProjectedGrad::default();
-                for k in 0..TILE_PIXELS {
-                    if j as u32 >= n_contrib[k] {
-                        continue;
+                let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+                for ly in y0..y1 {
+                    for lx in x0..x1 {
+                        let k = ly * TILE + lx;
+                        if j as u32 >= n_contrib[k] {
+                            continue;
+                        }
+                        let p = Vec2::new((tx * TILE + lx) as f32 + 0.5, (ty * TILE + ly) as f32 + 0.5);
+                        let (pw, dx, dy) = power(s, p);
+                        if pw > 0.0 || pw < s.log_cutoff {
+                            continue;
+                        }
+                        let g = pw.exp();
+                        let raw = s.opacity * g;
+                        let alpha = raw.min(MAX_ALPHA);
+                        if alpha < min_alpha {
+                            continue;
+                        }
+                        let one_minus = 1.0 - alpha;
+                        let t_i = trans[k] / one_minus;
+                        let w = alpha * t_i;
+                        let d = dout[k];
+                        let mut g_alpha = d[3] * t_final[k] / one_minus;
+                        for c in 0..3 {
+                            acc.colour[c] += d[c] * w;
+                            g_alpha += d[c] * (s.colour[c] * t_i - behind[k][c] / one_minus);
+                            behind[k][c] += s.colour[c] * w;
+                        }
+                        trans[k] = t_i;
+                        if raw > MAX_ALPHA {
+                            continue;
+                        }
+                        acc.opacity += g_alpha * g;
+                        let g_pow = g_alpha * s.opacity * g;
+                        let [a, b, c] = s.conic;
+                        acc.conic[0] += -0.5 * g_pow * dx * dx;
+                        acc.conic[1] += -g_pow * dx * dy;
+                        acc.conic[2] += -0.5 * g_pow * dy * dy;
+                        acc.mean += g_pow * Vec2::new(a * dx + b * dy, b * dx + c * dy);
                     }
-                    let p = pixels[k].expect("contributing pixel").1;
-                    let (pw, dx, dy) = power(s, p);
-                    if pw > 0.0 {
-                        continue;
-                    }
-                    let g = pw.exp();
-                    let raw = s.opacity * g;
-                    let alpha = raw.min(MAX_ALPHA);
-                    if alpha < min_alpha {
-                        continue;
-                    }
-                    let one_minus = 1.0 - alpha;
-                    let t_i = trans[k] / one_minus;
-                    let w = alpha * t_i;
-                    let d = dout[k];
-                    let mut g_alpha = d[3] * t_final[k] / one_minus;
-                    for c in 0..3 {
-                        acc.colour[c] += d[c] * w;
-                        g_alpha += d[c] * (s.colour[c] * t_i - behind[k][c] / one_minus);
-                        behind[k][c] += s.colour[c] * w;
-                    }
-                    trans[k] = t_i;
-                    if raw > MAX_ALPHA {
-                        continue;
-                    }
-                    acc.opacity += g_alpha * g;
-                    let g_pow = g_alpha * s.opacity * g;
-                    let [a, b, c] = s.conic;
-                    acc.conic[0] += -0.5 * g_pow * dx * dx;
-                    acc.conic[1] += -g_pow * dx * dy;
-                    acc.conic[2] += -0.5 * g_pow * dy * dy;
-                    acc.mean += g_pow * Vec2::new(a * dx + b * dy, b * dx + c * dy);
                 }
                 grads[j] = acc;
             }
