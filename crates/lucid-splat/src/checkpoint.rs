@@ -43,6 +43,10 @@ pub struct SplatCheckpointHeader {
     pub view: ViewInfo,
     /// Centre of the scene.
     pub centre: [f32; 3],
+    /// Position in the reference schedule.
+    pub schedule: usize,
+    /// Steps since the last densification.
+    pub since_densify: usize,
 }
 
 fn f32_bytes(v: &[f32]) -> impl Iterator<Item = u8> + '_ {
@@ -60,6 +64,8 @@ pub fn save(path: &Path, trainer: &SplatTrainer, elapsed: f64) -> Result<(), Che
         elapsed,
         view: trainer.view,
         centre: trainer.centre.to_array(),
+        schedule: trainer.schedule,
+        since_densify: trainer.since_densify,
     };
     let header = serde_json::to_vec_pretty(&header).expect("the header serialises");
     let model = trainer.model.clone().into_record().into_bytes().map_err(|e| invalid(path, e.to_string()))?;
@@ -163,5 +169,7 @@ pub fn load(path: &Path, device: &Device) -> Result<LoadedSplats, CheckpointErro
         device.clone(),
     );
     trainer.stats = stats;
+    trainer.schedule = header.schedule;
+    trainer.since_densify = header.since_densify;
     Ok(LoadedSplats { header, trainer })
 }

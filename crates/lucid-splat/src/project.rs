@@ -86,13 +86,20 @@ impl SplatParams<'_> {
         assert_eq!(self.sh_rest.len(), SH_REST * n, "rest SH must be N×45");
     }
 
+    #[inline(always)]
     fn vec3(s: &[f32], i: usize) -> Vec3 {
-        Vec3::new(s[3 * i], s[3 * i + 1], s[3 * i + 2])
+        Vec3::from_slice(&s[3 * i..3 * i + 3])
     }
 
-    /// Coefficient `k` (0..16) of Gaussian `i` for every channel.
-    fn coeff(&self, i: usize, k: usize) -> Vec3 {
-        if k == 0 { Self::vec3(self.sh_dc, i) } else { Self::vec3(&self.sh_rest[SH_REST * i..], k - 1) }
+    /// The SH coefficients of Gaussian `i`, `[k][channel]` for `k` in `0..16`.
+    #[inline(always)]
+    fn coeffs(&self, i: usize) -> [Vec3; SH_COEFFS] {
+        let mut c = [Vec3::ZERO; SH_COEFFS];
+        c[0] = Self::vec3(self.sh_dc, i);
+        for (k, v) in self.sh_rest[SH_REST * i..SH_REST * (i + 1)].chunks_exact(3).enumerate() {
+            c[k + 1] = Vec3::new(v[0], v[1], v[2]);
+        }
+        c
     }
 }
 
@@ -239,9 +246,10 @@ fn forward(p: &SplatParams, i: usize, cam: &SplatCamera, s: &RenderSettings) -> 
     let dir_len = d.length();
     let dir = if dir_len > 0.0 { d / dir_len } else { Vec3::Z };
     let basis = basis(dir, s.sh_degree);
+    let coeffs = p.coeffs(i);
     let mut raw_colour = Vec3::splat(0.5);
-    for (k, y) in basis.iter().enumerate().take(crate::sh::coeffs_for_degree(s.sh_degree)) {
-        raw_colour += *y * p.coeff(i, k);
+    for (y, c) in basis.iter().zip(&coeffs).take(crate::sh::coeffs_for_degree(s.sh_degree)) {
+        raw_colour += *y * *c;
     }
     let colour = raw_colour.max(Vec3::ZERO);
     let out = ProjectedSplat {
@@ -296,10 +304,11 @@ pub fn project_backward_one(
     let gc = Vec3::select(f.raw_colour.cmpgt(Vec3::ZERO), gc, Vec3::ZERO);
     let used = crate::sh::coeffs_for_degree(s.sh_degree);
     let grad_basis = basis_gradient(f.dir, s.sh_degree);
+    let coeffs = p.coeffs(i);
     let mut g_dir = Vec3::ZERO;
-    for (k, (y, dy)) in f.basis.iter().zip(&grad_basis).enumerate().take(used) {
+    for (k, ((y, dy), c)) in f.basis.iter().zip(&grad_basis).zip(&coeffs).enumerate().take(used) {
         out.sh[k] = *y * gc;
-        g_dir += gc.dot(p.coeff(i, k)) * *dy;
+        g_dir += gc.dot(*c) * *dy;
     }
     if f.dir_len > 0.0 {
         out.mean += (g_dir - f.dir * f.dir.dot(g_dir)) / f.dir_len;

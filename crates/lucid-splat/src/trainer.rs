@@ -2,6 +2,12 @@
 //! `(1 − λ)·L1 + λ·D-SSIM` against the view composited over the step's background, Adam with a
 //! learning rate per parameter kind (positions decaying exponentially), SH degree raised
 //! every `sh_degree_every` steps, densification and opacity resets on schedule.
+//!
+//! The schedule is the reference's, in steps of a `train.steps` run. Under a wall-clock budget
+//! that ends the run first, its phases (SH degrees, densification window, opacity resets,
+//! position learning rate) are stretched to the fraction of the budget used, so a short run
+//! still goes through all of them; densification itself still waits `densify.every` real
+//! steps, so its gradient statistics always cover as many views.
 
 use std::time::Instant;
 
@@ -56,6 +62,11 @@ pub struct SplatTrainer {
     pub centre: Vec3,
     /// Fraction of a wall-clock budget used so far (set by time-limited loops).
     pub budget_progress: f64,
+    /// Position in the reference schedule (the step count, or further on under a time
+    /// budget).
+    pub schedule: usize,
+    /// Steps since the last densification.
+    pub since_densify: usize,
     device: Device,
 }
 
@@ -100,6 +111,8 @@ impl SplatTrainer {
             view: ViewInfo::from_cameras(&data.cameras, centre),
             centre,
             budget_progress: 0.0,
+            schedule: 0,
+            since_densify: 0,
             device,
         }
     }
@@ -117,7 +130,20 @@ impl SplatTrainer {
         device: Device,
     ) -> Self {
         let stats = DensifyStats::new(model.len());
-        Self { config, model, optimizer, stats, step, extent, view, centre, budget_progress: 0.0, device }
+        Self {
+            config,
+            model,
+            optimizer,
+            stats,
+            step,
+            extent,
+            view,
+            centre,
+            budget_progress: 0.0,
+            schedule: step,
+            since_densify: 0,
+            device,
+        }
     }
 
     /// Progress through the run, from the step count or the time budget, whichever is ahead.
@@ -127,7 +153,7 @@ impl SplatTrainer {
 
     /// The SH degree in use at this step.
     pub fn sh_degree(&self) -> usize {
-        (self.step / self.config.train.sh_degree_every).min(self.config.train.sh_degree)
+        (self.schedule / self.config.train.sh_degree_every).min(self.config.train.sh_degree)
     }
 
     /// Render settings for evaluation (fixed background, current SH degree).
@@ -212,13 +238,20 @@ impl SplatTrainer {
         lap(&mut timings[2]);
 
         self.step += 1;
+        self.since_densify += 1;
+        let before = self.schedule;
+        let budget = (self.budget_progress * cfg.steps as f64) as usize;
+        self.schedule = self.step.max(budget).max(before + 1);
         let d = self.config.densify;
         let mut densified = None;
-        let in_window = self.step < d.until;
-        if in_window && self.step > d.from && self.step.is_multiple_of(d.every) {
-            densified = Some(self.densify(&mut rng));
+        let in_window = self.schedule < d.until;
+        if self.since_densify >= d.every {
+            if in_window && self.schedule > d.from {
+                densified = Some(self.densify(&mut rng));
+            }
+            self.since_densify = 0;
         }
-        if in_window && self.step.is_multiple_of(d.opacity_reset_every) {
+        if in_window && self.schedule / d.opacity_reset_every > before / d.opacity_reset_every {
             self.edit_on_host(reset_opacity);
         }
         lap(&mut timings[3]);
@@ -227,7 +260,7 @@ impl SplatTrainer {
 
     fn densify(&mut self, rng: &mut Rng) -> DensifyReport {
         let stats = std::mem::take(&mut self.stats);
-        let prune_oversized = self.step > self.config.densify.opacity_reset_every;
+        let prune_oversized = self.schedule > self.config.densify.opacity_reset_every;
         let (config, extent) = (self.config.densify, self.extent);
         let report = self.edit_on_host(|cloud, moments| {
             densify_and_prune(cloud, moments, &stats, &config, extent, prune_oversized, rng)

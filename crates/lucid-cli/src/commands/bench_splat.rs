@@ -78,7 +78,9 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     }
     bar.finish_and_clear();
     let last = last_summary.expect("the last budget evaluates");
-    let raster = rasterizer_throughput(if bench.quick { 10_000 } else { 100_000 });
+    let trained_cloud = trainer.model.to_cloud();
+    let workload = training_workload(&trained_cloud, &train, &trainer.eval_settings());
+    let raster = rasterizer_throughput(100_000);
 
     println!("lucid bench splat{}: object orbit set", if bench.quick { " --quick" } else { "" });
     println!("{:>10} {:>7} {:>9} {:>8} {:>10}", "train (s)", "step", "PSNR", "SSIM", "Gaussians");
@@ -106,7 +108,13 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
             .join(", ")
     );
     println!(
-        "rasterizer ({} Gaussians): {:.1} M blends/s/core forward+backward; {:.1} images/s at 200x200, {:.1} at 800x800",
+        "rasterizer on the trained cloud ({} Gaussians, training views): {:.1} M blends/s/core forward+backward, {:.1} ms per view",
+        workload["gaussians"],
+        workload["blends_per_second_per_core"].as_f64().unwrap_or(0.0) / 1e6,
+        workload["forward_backward_seconds_per_view"].as_f64().unwrap_or(0.0) * 1e3
+    );
+    println!(
+        "rasterizer ({} random Gaussians): {:.1} M blends/s/core forward+backward; {:.1} images/s at 200x200, {:.1} at 800x800",
         raster["gaussians"],
         raster["blends_per_second_per_core"].as_f64().unwrap_or(0.0) / 1e6,
         raster["images_per_second_200"].as_f64().unwrap_or(0.0),
@@ -116,8 +124,31 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         "benchmark": "splat", "quick": bench.quick, "threads": rayon::current_num_threads(),
         "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
         "time_shares": names.iter().zip(phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
-        "rasterizer": raster, "config": trainer.config,
+        "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
     }))
+}
+
+/// Forward+backward of the trained cloud over (up to) 10 training views: the training
+/// workload's splat-pixel blends per second per core.
+fn training_workload(cloud: &SplatCloud, train: &ImageSet, settings: &RenderSettings) -> serde_json::Value {
+    let params = cloud.params();
+    let views = train.len().min(10);
+    let (mut blends, mut seconds) = (0u64, 0.0f64);
+    for camera in &train.cameras[..views] {
+        let cam = SplatCamera::from_pinhole(camera);
+        let grad = vec![1e-3f32; cam.width as usize * cam.height as usize * 4];
+        let t = Instant::now();
+        let (_, state) = render(&params, &cam, settings);
+        std::hint::black_box(render_backward(&params, &state, &grad));
+        seconds += t.elapsed().as_secs_f64();
+        blends += state.pixels.blends;
+    }
+    let threads = rayon::current_num_threads() as f64;
+    json!({
+        "gaussians": cloud.len(), "views": views, "blends_per_view": blends as f64 / views.max(1) as f64,
+        "forward_backward_seconds_per_view": seconds / views.max(1) as f64,
+        "blends_per_second_per_core": blends as f64 / seconds.max(1e-9) / threads,
+    })
 }
 
 /// A random cloud of `n` Gaussians in a 2-unit ball with trained-looking sizes, timed from a
