@@ -76,7 +76,9 @@ pub struct TrainConfig {
     pub steps: usize,
     /// Stop after this many seconds of training even if steps remain (0: no limit).
     pub time_limit: f64,
-    /// Samples per batch: the number of rays adapts to keep this many.
+    /// Samples per batch: the number of rays adapts to keep this many. 2^15 measured best on
+    /// 2 cores (3-minute runs on the object set: 2^14 28.56 dB, 2^15 28.72, 2^16 28.13; at
+    /// 10 minutes 2^15 and 2^16 end level, 2^15 much earlier): more, cheaper steps.
     pub batch_samples: usize,
     /// Rays of the first batch, before the adaptation has a measurement.
     pub initial_rays: usize,
@@ -114,7 +116,7 @@ impl Default for TrainConfig {
         Self {
             steps: 3000,
             time_limit: 0.0,
-            batch_samples: 1 << 16,
+            batch_samples: 1 << 15,
             initial_rays: 4096,
             learning_rate: 1e-2,
             final_learning_rate: 0.1,

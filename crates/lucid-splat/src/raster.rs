@@ -85,8 +85,16 @@ fn local_rect(s: &ProjectedSplat, tx: usize, ty: usize) -> (usize, usize, usize,
 /// overlaps it, nearest first (ties by index, so the order is deterministic).
 pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
-    let mut order: Vec<u32> = (0..splats.len() as u32).filter(|&i| splats[i as usize].radius > 0.0).collect();
-    order.par_sort_unstable_by(|&a, &b| splats[a as usize].depth.total_cmp(&splats[b as usize].depth).then(a.cmp(&b)));
+    // Sort keys: the depth's bits (positive floats order as integers) above the index, so the
+    // order is total and deterministic and the sort touches no splat data.
+    let mut keys: Vec<u64> = splats
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.radius > 0.0)
+        .map(|(i, s)| ((s.depth.max(0.0).to_bits() as u64) << 32) | i as u64)
+        .collect();
+    keys.par_sort_unstable();
+    let order: Vec<u32> = keys.iter().map(|k| *k as u32).collect();
     let mut counts = vec![0usize; tiles_x * tiles_y + 1];
     for &i in &order {
         let (x0, x1, y0, y1) = tile_rect(&splats[i as usize], tiles_x, tiles_y);

@@ -79,28 +79,38 @@ pub fn render_backward(params: &SplatParams, state: &RenderState, grad_image: &[
         sh_rest: vec![0.0; SH_REST * n],
         means_2d: vec![0.0; 2 * n],
     };
-    let per_splat: Vec<_> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if state.projected[i].radius <= 0.0 {
-                return None;
+    // Each chunk of splats writes its own rows of every gradient array, in parallel.
+    const CHUNK: usize = 512;
+    let screen = &screen;
+    grads
+        .means
+        .par_chunks_mut(3 * CHUNK)
+        .zip(grads.log_scales.par_chunks_mut(3 * CHUNK))
+        .zip(grads.rotations.par_chunks_mut(4 * CHUNK))
+        .zip(grads.opacities.par_chunks_mut(CHUNK))
+        .zip(grads.sh_dc.par_chunks_mut(3 * CHUNK))
+        .zip(grads.sh_rest.par_chunks_mut(SH_REST * CHUNK))
+        .zip(grads.means_2d.par_chunks_mut(2 * CHUNK))
+        .enumerate()
+        .for_each(|(c, ((((((means, log_scales), rotations), opacities), sh_dc), sh_rest), means_2d))| {
+            for j in 0..opacities.len() {
+                let i = c * CHUNK + j;
+                if state.projected[i].radius <= 0.0 {
+                    continue;
+                }
+                let g = project_backward_one(params, i, cam, &state.settings, &screen[i]);
+                means[3 * j..3 * j + 3].copy_from_slice(&g.mean.to_array());
+                log_scales[3 * j..3 * j + 3].copy_from_slice(&g.log_scale.to_array());
+                rotations[4 * j..4 * j + 4].copy_from_slice(&g.rotation);
+                opacities[j] = g.opacity;
+                sh_dc[3 * j..3 * j + 3].copy_from_slice(&g.sh[0].to_array());
+                for k in 1..SH_COEFFS {
+                    let o = SH_REST * j + 3 * (k - 1);
+                    sh_rest[o..o + 3].copy_from_slice(&g.sh[k].to_array());
+                }
+                means_2d[2 * j] = screen[i].mean.x * 0.5 * w as f32;
+                means_2d[2 * j + 1] = screen[i].mean.y * 0.5 * h as f32;
             }
-            Some(project_backward_one(params, i, cam, &state.settings, &screen[i]))
-        })
-        .collect();
-    for (i, g) in per_splat.into_iter().enumerate() {
-        let Some(g) = g else { continue };
-        grads.means[3 * i..3 * i + 3].copy_from_slice(&g.mean.to_array());
-        grads.log_scales[3 * i..3 * i + 3].copy_from_slice(&g.log_scale.to_array());
-        grads.rotations[4 * i..4 * i + 4].copy_from_slice(&g.rotation);
-        grads.opacities[i] = g.opacity;
-        grads.sh_dc[3 * i..3 * i + 3].copy_from_slice(&g.sh[0].to_array());
-        for k in 1..SH_COEFFS {
-            let o = SH_REST * i + 3 * (k - 1);
-            grads.sh_rest[o..o + 3].copy_from_slice(&g.sh[k].to_array());
-        }
-        grads.means_2d[2 * i] = screen[i].mean.x * 0.5 * w as f32;
-        grads.means_2d[2 * i + 1] = screen[i].mean.y * 0.5 * h as f32;
-    }
+        });
     grads
 }
