@@ -371,6 +371,9 @@ pub struct DemoArgs {
     /// NeRF training steps (default configuration otherwise); 0 skips the NeRF.
     #[arg(long, default_value_t = 500)]
     pub nerf_steps: usize,
+    /// 3DGS training steps (the default schedule scaled to them); 0 skips the splats.
+    #[arg(long, default_value_t = 1500)]
+    pub splat_steps: usize,
 }
 
 /// Parses `TRAIN,VAL,TEST` view counts.

@@ -1,8 +1,9 @@
 //! `lucid demo`: the README's main command. It path-traces a small dataset of the built-in
 //! `object` scene, reads it back, and scores on the held-out test views: the 8-bit images
 //! against the HDR truth, a nearest-training-view baseline (the floor every trained model
-//! must beat), and a NeRF trained on the training views. Writes `<out>/dataset/`,
-//! `<out>/nerf/` (checkpoint and test renders) and `<out>/metrics.json`.
+//! must beat), a NeRF and a 3D Gaussian splat cloud trained on the training views. Writes
+//! `<out>/dataset/`, `<out>/nerf/`, `<out>/splat/` (checkpoints, test renders, `splats.ply`)
+//! and `<out>/metrics.json`.
 
 use anyhow::{Context, bail};
 use glam::{Vec3, Vec4Swizzles};
@@ -76,6 +77,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let n = MetricSummary::from_images(&nearest);
     // 3. A NeRF trained on the training views, scored on the same test views.
     let nerf = if args.nerf_steps > 0 { Some(train_nerf(&dataset, &args)?) } else { None };
+    // 4. A 3DGS cloud, likewise.
+    let splat = if args.splat_steps > 0 { Some(train_splat(&dataset, &args)?) } else { None };
     let elapsed = started.elapsed().as_secs_f64();
 
     println!(
@@ -89,6 +92,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     println!("{:<44} {:>9.2} {:>7.4}", "nearest training view (baseline)", n.psnr, n.ssim);
     if let Some(r) = &nerf {
         let label = format!("NeRF ({} steps, {:.0} s of training)", r.steps, r.seconds);
+        println!("{:<44} {:>9.2} {:>7.4}", label, r.summary.psnr, r.summary.ssim);
+    }
+    if let Some(r) = &splat {
+        let label = format!("3DGS ({} steps, {:.0} s of training)", r.steps, r.seconds);
         println!("{:<44} {:>9.2} {:>7.4}", label, r.summary.psnr, r.summary.ssim);
     }
     println!();
@@ -106,6 +113,11 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 "training_seconds": r.seconds, "seconds_per_view": r.summary.seconds_per_view,
                 "checkpoint": r.checkpoint.display().to_string(),
             })),
+            "splat": splat.as_ref().map(|r| json!({
+                "psnr": r.summary.psnr, "ssim": r.summary.ssim, "count": r.summary.views, "steps": r.steps,
+                "training_seconds": r.seconds, "seconds_per_view": r.summary.seconds_per_view,
+                "checkpoint": r.checkpoint.display().to_string(),
+            })),
         },
         "seconds": elapsed,
     });
@@ -115,17 +127,17 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What the demo's NeRF run produced.
-struct NerfResult {
+/// What a demo training run produced.
+struct TrainResult {
     steps: usize,
     seconds: f64,
-    summary: lucid_nerf::eval::EvalSummary,
+    summary: lucid_scene::evaluation::EvalSummary,
     checkpoint: std::path::PathBuf,
 }
 
 /// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and
 /// scores it on the test views (renders written beside the checkpoint).
-fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<NerfResult> {
+fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult> {
     use lucid_nerf::data::ImageSet;
     let frames = dataset.frames(Split::Train);
     let mut config = lucid_nerf::config::NerfConfig::default();
@@ -147,11 +159,62 @@ fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<NerfResult> 
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let checkpoint = dir.join("checkpoint.lucid");
     lucid_nerf::checkpoint::save(&checkpoint, &trainer, seconds)?;
-    let test = ImageSet::load(dataset.frames(Split::Test))?;
     let model = trainer.eval_model();
-    let renderer = trainer.renderer(&model);
+    let summary = score_and_write(dataset, &trainer.renderer(&model), &dir)?;
+    Ok(TrainResult { steps: trainer.step, seconds, summary, checkpoint })
+}
+
+/// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
+/// them), saves it under `<out>/splat/` with `splats.ply`, and scores it on the test views.
+fn train_splat(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult> {
+    use lucid_scene::dataset::images::{ImageSet, scene_box};
+    use lucid_splat::trainer::{SplatTrainer, initial_cloud};
+    let mut config = lucid_splat::config::SplatConfig::default();
+    let steps = args.splat_steps;
+    // The reference schedule spans 30k steps; a short run keeps its proportions.
+    let scale = |v: usize| (v * steps / config.train.steps).max(1);
+    let d = config.densify;
+    config.densify.from = scale(d.from);
+    config.densify.until = scale(d.until);
+    config.densify.opacity_reset_every = scale(d.opacity_reset_every);
+    config.train.sh_degree_every = scale(config.train.sh_degree_every);
+    config.densify.every = scale(d.every).max(config.train.steps.min(steps) / 100).max(10);
+    config.train.steps = steps;
+    config.train.seed = args.seed;
+    let train = ImageSet::load(dataset.frames(Split::Train))?;
+    let cloud = initial_cloud(&config, dataset).map_err(anyhow::Error::msg)?;
+    let (lo, hi) = scene_box(dataset);
+    let mut trainer =
+        SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
+    tracing::info!("training 3D Gaussian splats for {steps} steps");
+    let bar = crate::progress::bar(steps as u64, "splat");
+    let started = std::time::Instant::now();
+    while trainer.step < steps {
+        trainer.step(&train);
+        bar.inc(1);
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let dir = args.out.join("splat");
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let checkpoint = dir.join("checkpoint.lucid");
+    lucid_splat::checkpoint::save(&checkpoint, &trainer, seconds)?;
+    let cloud = trainer.model.to_cloud();
+    lucid_splat::ply::write_splat_ply(&dir.join("splats.ply"), &cloud)?;
+    let renderer = lucid_splat::view::SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
+    let summary = score_and_write(dataset, &renderer, &dir)?;
+    Ok(TrainResult { steps: trainer.step, seconds, summary, checkpoint })
+}
+
+/// Scores `renderer` on the test views, writing each render as `dir/test_NNN.png`.
+fn score_and_write(
+    dataset: &Dataset,
+    renderer: &dyn lucid_scene::evaluation::ViewModel,
+    dir: &std::path::Path,
+) -> anyhow::Result<lucid_scene::evaluation::EvalSummary> {
+    let test = lucid_scene::dataset::images::ImageSet::load(dataset.frames(Split::Test))?;
     let mut failure = None;
-    let (_, summary) = lucid_nerf::eval::evaluate(&renderer, &test, None, |i, view, _, _| {
+    let (_, summary) = lucid_scene::evaluation::evaluate(renderer, &test, None, |i, view, _, _| {
         if let Err(e) = lucid_image::write_image(dir.join(format!("test_{i:03}.png")), &view.linear_colour()) {
             failure.get_or_insert(e);
         }
@@ -159,7 +222,7 @@ fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<NerfResult> 
     if let Some(e) = failure {
         return Err(e.into());
     }
-    Ok(NerfResult { steps: trainer.step, seconds, summary, checkpoint })
+    Ok(summary)
 }
 
 /// The default `object` orbit set: cameras on the upper hemisphere at distance 4 with a 40°
