@@ -110,3 +110,40 @@ pub fn csv_columns(path: &Path, columns: &[usize]) -> Vec<String> {
         })
         .collect()
 }
+
+/// Renders a small light field into `dir/lf` (a 5×5 camera grid, 40 px, and thin-lens test
+/// views with `aperture_radius` 0.5 focused at 3.5), trains `model` (`nerf` or `splat`) on it
+/// into `dir/m` for 300 steps with `train_args`, and returns the held-out PSNR rendered
+/// through each view's lens and through a pinhole.
+pub fn light_field_lens_and_pinhole_psnr(dir: &Path, model: &str, train_args: &[&str]) -> (f64, f64) {
+    let generate = [
+        "gen",
+        "object",
+        "--rig",
+        "lightfield",
+        "-o",
+        "lf",
+        "--res",
+        "40",
+        "--spp",
+        "8",
+        "--grid",
+        "5,5",
+        "--spacing",
+        "0.25",
+        "--focus",
+        "3.5",
+        "--apertures",
+        "0.5",
+    ];
+    lucid_in(dir, &generate).success();
+    let mut args = vec!["train", model, "lf", "-o", "m", "--steps", "300", "--no-eval"];
+    args.extend_from_slice(train_args);
+    lucid_in(dir, &args).success();
+    let psnr = |extra: &[&str]| {
+        let mut a = vec!["eval", "m/checkpoint.lucid", "lf", "--json", "-o", "e"];
+        a.extend_from_slice(extra);
+        lucid_in(dir, &a).success().json()["summary"]["psnr"].as_f64().expect("a PSNR")
+    };
+    (psnr(&[]), psnr(&["--pinhole"]))
+}

@@ -98,37 +98,7 @@ fn broken_checkpoints_and_configs_are_clear_errors() {
 fn thin_lens_rendering_from_a_model_matches_the_refocused_truth() {
     let dir = temp_dir();
     let d = dir.path();
-    let generate = [
-        "gen",
-        "object",
-        "--rig",
-        "lightfield",
-        "-o",
-        "lf",
-        "--res",
-        "40",
-        "--spp",
-        "8",
-        "--grid",
-        "5,5",
-        "--spacing",
-        "0.25",
-        "--focus",
-        "3.5",
-        "--apertures",
-        "0.5",
-    ];
-    lucid_in(d, &generate).success();
-    let mut args = vec!["train", "nerf", "lf", "-o", "m", "--steps", "300", "--no-eval"];
-    args.extend_from_slice(&TINY);
-    lucid_in(d, &args).success();
-    let psnr = |extra: &[&str]| {
-        let mut a = vec!["eval", "m/checkpoint.lucid", "lf", "--json", "-o", "e"];
-        a.extend_from_slice(extra);
-        let report = lucid_in(d, &a).success().json();
-        report["summary"]["psnr"].as_f64().unwrap()
-    };
-    let (lens, pinhole) = (psnr(&[]), psnr(&["--pinhole"]));
+    let (lens, pinhole) = lucid_tests::light_field_lens_and_pinhole_psnr(d, "nerf", &TINY);
     // Measured: thin lens 25.76 dB, pinhole 24.49 dB.
     assert!(lens > pinhole + 0.5, "thin lens {lens:.2} dB vs pinhole {pinhole:.2} dB");
 

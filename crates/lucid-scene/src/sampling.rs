@@ -54,6 +54,17 @@ impl Rng {
     }
 }
 
+/// Sample `k` of `n` stratified over the unit square: one jittered point (drawn from
+/// `Rng::new(seed, k)`) in cell `k` of a ⌈√n⌉×⌈√n⌉ grid, row by row. Thin-lens renderers use it
+/// for the lens position of each pass.
+pub fn stratified_square(k: usize, n: usize, seed: u64) -> Vec2 {
+    let side = (n as f32).sqrt().ceil() as usize;
+    let mut rng = Rng::new(seed, k as u64);
+    let offset = Vec2::new(rng.uniform(), rng.uniform());
+    let cell = Vec2::new((k % side) as f32, (k / side) as f32);
+    (cell + offset) / side as f32
+}
+
 /// SplitMix64 finaliser: spreads nearby seeds far apart.
 pub fn mix(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);

@@ -42,14 +42,14 @@ impl SplatCloud {
 
     /// Borrowed view for the kernels.
     pub fn params(&self) -> SplatParams<'_> {
-        SplatParams {
-            means: &self.means,
-            log_scales: &self.log_scales,
-            rotations: &self.rotations,
-            opacities: &self.opacities,
-            sh_dc: &self.sh_dc,
-            sh_rest: &self.sh_rest,
-        }
+        SplatParams::from_kinds([
+            &self.means,
+            &self.log_scales,
+            &self.rotations,
+            &self.opacities,
+            &self.sh_dc,
+            &self.sh_rest,
+        ])
     }
 
     /// Appends one isotropic Gaussian with a view-independent colour.

@@ -78,14 +78,7 @@ pub trait SplatOps: Backend {
         drop(means_2d);
         let device = means.device();
         let v = [means, log_scales, rotations, opacities, sh_dc, sh_rest].map(to_host::<Self>);
-        let p = SplatParams {
-            means: &v[0],
-            log_scales: &v[1],
-            rotations: &v[2],
-            opacities: &v[3],
-            sh_dc: &v[4],
-            sh_rest: &v[5],
-        };
+        let p = SplatParams::from_kinds(v.each_ref().map(Vec::as_slice));
         let (image, state) = render(&p, &args.camera, &args.settings);
         args.keep(state);
         let (w, h) = (args.camera.width as usize, args.camera.height as usize);
@@ -116,14 +109,7 @@ pub trait SplatOps: Backend {
         let device = means.device();
         let shapes = [&means, &log_scales, &rotations, &opacities, &sh_dc, &sh_rest].map(|t| t.shape());
         let v = [means, log_scales, rotations, opacities, sh_dc, sh_rest].map(to_host::<Self>);
-        let p = SplatParams {
-            means: &v[0],
-            log_scales: &v[1],
-            rotations: &v[2],
-            opacities: &v[3],
-            sh_dc: &v[4],
-            sh_rest: &v[5],
-        };
+        let p = SplatParams::from_kinds(v.each_ref().map(Vec::as_slice));
         let g = render_backward(&p, &args.take_state(), &to_host::<Self>(grad_image));
         let n = p.len();
         let [a, b, c, d, e, f, m] = grads_in_order(g);
@@ -154,15 +140,8 @@ mod flex_impl {
             _means_2d: FlexTensor,
             args: SplatRenderArgs,
         ) -> FlexTensor {
-            let (a, b, c, d, e, f) = (
-                values(&means),
-                values(&log_scales),
-                values(&rotations),
-                values(&opacities),
-                values(&sh_dc),
-                values(&sh_rest),
-            );
-            let p = SplatParams { means: &a, log_scales: &b, rotations: &c, opacities: &d, sh_dc: &e, sh_rest: &f };
+            let v = [&means, &log_scales, &rotations, &opacities, &sh_dc, &sh_rest].map(values);
+            let p = SplatParams::from_kinds(v.each_ref().map(|c| &c[..]));
             let (image, state) = render(&p, &args.camera, &args.settings);
             args.keep(state);
             flex_tensor(image, [args.camera.height as usize, args.camera.width as usize, 4])
@@ -178,15 +157,8 @@ mod flex_impl {
             grad_image: FlexTensor,
             args: SplatRenderArgs,
         ) -> (FlexTensor, FlexTensor, FlexTensor, FlexTensor, FlexTensor, FlexTensor, FlexTensor) {
-            let (a, b, c, d, e, f) = (
-                values(&means),
-                values(&log_scales),
-                values(&rotations),
-                values(&opacities),
-                values(&sh_dc),
-                values(&sh_rest),
-            );
-            let p = SplatParams { means: &a, log_scales: &b, rotations: &c, opacities: &d, sh_dc: &e, sh_rest: &f };
+            let v = [&means, &log_scales, &rotations, &opacities, &sh_dc, &sh_rest].map(values);
+            let p = SplatParams::from_kinds(v.each_ref().map(|c| &c[..]));
             let g = render_backward(&p, &args.take_state(), &values(&grad_image));
             let n = p.len();
             let [ga, gb, gc, gd, ge, gf, gm] = grads_in_order(g);

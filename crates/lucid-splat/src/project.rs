@@ -65,7 +65,13 @@ pub struct SplatParams<'a> {
     pub sh_rest: &'a [f32],
 }
 
-impl SplatParams<'_> {
+impl<'a> SplatParams<'a> {
+    /// From the six arrays in the order of the fields (means, log-scales, rotations,
+    /// opacities, DC and rest SH).
+    pub fn from_kinds([means, log_scales, rotations, opacities, sh_dc, sh_rest]: [&'a [f32]; 6]) -> Self {
+        Self { means, log_scales, rotations, opacities, sh_dc, sh_rest }
+    }
+
     /// Number of Gaussians.
     pub fn len(&self) -> usize {
         self.opacities.len()
@@ -403,6 +409,10 @@ mod tests {
 
     use super::*;
 
+    fn params(v: &[Vec<f32>]) -> SplatParams<'_> {
+        SplatParams::from_kinds(std::array::from_fn(|k| v[k].as_slice()))
+    }
+
     /// The projection's backward against central differences of a fixed linear function of
     /// its outputs.
     #[test]
@@ -426,14 +436,7 @@ mod tests {
             colour: [0.3, -0.6, 0.9],
         };
         let objective = |v: &Vec<Vec<f32>>| -> f64 {
-            let p = SplatParams {
-                means: &v[0],
-                log_scales: &v[1],
-                rotations: &v[2],
-                opacities: &v[3],
-                sh_dc: &v[4],
-                sh_rest: &v[5],
-            };
+            let p = params(v);
             let o = project_one(&p, 0, &cam, &s);
             assert!(o.radius > 0.0);
             let mut f = (g.mean.x * o.mean.x + g.mean.y * o.mean.y + g.opacity * o.opacity) as f64;
@@ -442,14 +445,7 @@ mod tests {
             }
             f
         };
-        let p = SplatParams {
-            means: &v[0],
-            log_scales: &v[1],
-            rotations: &v[2],
-            opacities: &v[3],
-            sh_dc: &v[4],
-            sh_rest: &v[5],
-        };
+        let p = params(&v);
         let a = project_backward_one(&p, 0, &cam, &s, &g);
         let analytic: Vec<Vec<f32>> = vec![
             a.mean.to_array().to_vec(),

@@ -277,22 +277,9 @@ impl SplatTrainer {
         let mut cloud = self.model.to_cloud();
         let mut moments = self.optimizer.to_host();
         let out = edit(&mut cloud, &mut moments);
-        let ids = [
-            self.model.means.id,
-            self.model.log_scales.id,
-            self.model.rotations.id,
-            self.model.opacities.id,
-            self.model.sh_dc.id,
-            self.model.sh_rest.id,
-        ];
-        let mut model = SplatModel::from_cloud(&cloud, &self.device);
-        model.means.id = ids[0];
-        model.log_scales.id = ids[1];
-        model.rotations.id = ids[2];
-        model.opacities.id = ids[3];
-        model.sh_dc.id = ids[4];
-        model.sh_rest.id = ids[5];
-        self.model = model;
+        // The optimiser keys its state by parameter kind, not by burn's parameter ids, so fresh
+        // parameters carry on with the edited moments.
+        self.model = SplatModel::from_cloud(&cloud, &self.device);
         self.optimizer.set_from_host(moments, &self.device);
         out
     }

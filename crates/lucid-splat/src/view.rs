@@ -6,7 +6,7 @@ use glam::{Mat4, Vec3};
 use lucid_image::Image;
 use lucid_scene::camera::PinholeCamera;
 use lucid_scene::evaluation::{RenderedView, ViewModel};
-use lucid_scene::sampling::{Rng, concentric_disk};
+use lucid_scene::sampling::{concentric_disk, stratified_square};
 
 use crate::camera::SplatCamera;
 use crate::cloud::SplatCloud;
@@ -49,17 +49,12 @@ impl ViewModel for SplatRenderer<'_> {
     ) -> RenderedView {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let passes = if lens.is_some() { lens_rays.max(1) } else { 1 };
-        let side = (passes as f32).sqrt().ceil() as usize;
         let mut acc = vec![0.0f32; w * h * 4];
         let mut depth = vec![0.0f32; w * h];
         for k in 0..passes {
             let cam = match lens {
                 Some((aperture, focus)) => {
-                    // Stratified over the lens, as the NeRF renderer does.
-                    let mut rng = Rng::new(seed, k as u64);
-                    let cell = glam::Vec2::new((k % side) as f32, (k / side) as f32);
-                    let u = (cell + glam::Vec2::new(rng.uniform(), rng.uniform())) / side as f32;
-                    let d = concentric_disk(u) * aperture;
+                    let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
                     lens_pinhole(camera, d.x, d.y, focus)
                 }
                 None => *camera,

@@ -4,18 +4,7 @@ use glam::Vec3;
 use lucid_scene::Intrinsics;
 use lucid_scene::camera::{PinholeCamera, look_at};
 use lucid_splat::project::SH_REST;
-use lucid_splat::{RenderSettings, SplatCamera, SplatParams, render, render_backward};
-
-/// A small deterministic cloud: a few overlapping splats in front of the camera, one big splat
-/// whose centre lies beyond the Jacobian's clamp to the left.
-struct Cloud {
-    means: Vec<f32>,
-    log_scales: Vec<f32>,
-    rotations: Vec<f32>,
-    opacities: Vec<f32>,
-    sh_dc: Vec<f32>,
-    sh_rest: Vec<f32>,
-}
+use lucid_splat::{RenderSettings, SplatCamera, SplatCloud, render, render_backward};
 
 fn pseudo(i: usize) -> f32 {
     // A fixed scramble to [-1, 1): reproducible without a generator.
@@ -23,7 +12,9 @@ fn pseudo(i: usize) -> f32 {
     (x >> 40) as f32 / (1u64 << 23) as f32 - 1.0
 }
 
-fn cloud() -> Cloud {
+/// A small deterministic cloud: a few overlapping splats in front of the camera, one big splat
+/// whose centre lies beyond the Jacobian's clamp to the left.
+fn cloud() -> SplatCloud {
     let centres = [
         Vec3::new(0.0, 0.0, 0.0),
         Vec3::new(0.15, 0.1, 0.05),
@@ -33,7 +24,7 @@ fn cloud() -> Cloud {
         Vec3::new(0.0, -2.6, 0.0),
     ];
     let n = centres.len();
-    let mut c = Cloud {
+    let mut c = SplatCloud {
         means: centres.iter().flat_map(|v| v.to_array()).collect(),
         log_scales: (0..3 * n).map(|k| -1.9 + 0.3 * pseudo(k)).collect(),
         rotations: (0..4 * n).map(|k| if k % 4 == 0 { 1.0 } else { 0.4 * pseudo(100 + k) }).collect(),
@@ -53,27 +44,16 @@ fn camera() -> SplatCamera {
     SplatCamera::from_pinhole(&PinholeCamera::new(k, look_at(Vec3::new(0.0, 2.5, 0.8), Vec3::ZERO, Vec3::Z)))
 }
 
-fn params(c: &Cloud) -> SplatParams<'_> {
-    SplatParams {
-        means: &c.means,
-        log_scales: &c.log_scales,
-        rotations: &c.rotations,
-        opacities: &c.opacities,
-        sh_dc: &c.sh_dc,
-        sh_rest: &c.sh_rest,
-    }
-}
-
 fn weights(len: usize) -> Vec<f32> {
     (0..len).map(|k| pseudo(10_000 + k)).collect()
 }
 
-fn loss(c: &Cloud, cam: &SplatCamera, s: &RenderSettings, w: &[f32]) -> f64 {
-    let (image, _) = render(&params(c), cam, s);
+fn loss(c: &SplatCloud, cam: &SplatCamera, s: &RenderSettings, w: &[f32]) -> f64 {
+    let (image, _) = render(&c.params(), cam, s);
     image.iter().zip(w).map(|(a, b)| *a as f64 * *b as f64).sum()
 }
 
-fn check(name: &str, field: fn(&mut Cloud) -> &mut Vec<f32>, grad: fn(&lucid_splat::SplatGrads) -> &Vec<f32>) {
+fn check(name: &str, field: fn(&mut SplatCloud) -> &mut Vec<f32>, grad: fn(&lucid_splat::SplatGrads) -> &Vec<f32>) {
     let cam = camera();
     // The 1/255 blend threshold and the 3σ footprint make the image jump where a pixel
     // crosses them; finite differences need a continuous image, so both are pushed out of
@@ -82,9 +62,9 @@ fn check(name: &str, field: fn(&mut Cloud) -> &mut Vec<f32>, grad: fn(&lucid_spl
         RenderSettings { background: [0.2, 0.5, 0.9], min_alpha: 1e-7, extent_sigmas: 6.0, ..Default::default() };
     let mut c = cloud();
     let w = weights(cam.width as usize * cam.height as usize * 4);
-    let (_, state) = render(&params(&c), &cam, &settings);
+    let (_, state) = render(&c.params(), &cam, &settings);
     assert!(state.projected.iter().filter(|p| p.radius > 0.0).count() == 6, "every splat must be on screen");
-    let analytic = grad(&render_backward(&params(&c), &state, &w)).clone();
+    let analytic = grad(&render_backward(&c.params(), &state, &w)).clone();
     let scale = analytic.iter().fold(0.0f32, |m, g| m.max(g.abs())).max(1e-3);
     let h = 2e-3;
     let mut nonzero = 0;

@@ -54,7 +54,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
-    let mut config = super::train::nerf_config(None, &bench.overrides, None, None, None)?;
+    let mut config = super::train::nerf_config(None, &bench.overrides, Default::default())?;
     let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
     let total = *budgets.last().expect("budgets");
     // Time ends the run (the learning rate decays over the time budget), not steps.

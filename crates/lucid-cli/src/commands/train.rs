@@ -67,25 +67,44 @@ pub fn training_data(args: &TrainModelArgs) -> anyhow::Result<(Dataset, ImageSet
     Ok((dataset, data, args.output.join("checkpoint.lucid")))
 }
 
+/// `--steps`, `--time-limit` and `--seed`, each only where given.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Shortcuts {
+    /// `train.steps`.
+    pub steps: Option<usize>,
+    /// `train.time_limit`.
+    pub time_limit: Option<f64>,
+    /// `train.seed`.
+    pub seed: Option<u64>,
+}
+
+impl Shortcuts {
+    /// The shortcuts of a training command.
+    pub fn of(args: &TrainModelArgs) -> Self {
+        Self { steps: args.steps, time_limit: args.time_limit, seed: args.seed }
+    }
+
+    /// Writes the given ones into a configuration's `train` section (a resumed run passes no
+    /// `seed`: it keeps its own).
+    pub fn apply(&self, steps: &mut usize, time_limit: &mut f64, seed: Option<&mut u64>) {
+        if let Some(s) = self.steps {
+            *steps = s;
+        }
+        if let Some(t) = self.time_limit {
+            *time_limit = t;
+        }
+        if let (Some(s), Some(seed)) = (self.seed, seed) {
+            *seed = s;
+        }
+    }
+}
+
 /// Reads the configuration file (or the defaults) and applies `--set` and the shortcuts.
-pub fn nerf_config(
-    file: Option<&Path>,
-    overrides: &[String],
-    steps: Option<usize>,
-    time_limit: Option<f64>,
-    seed: Option<u64>,
-) -> anyhow::Result<NerfConfig> {
+pub fn nerf_config(file: Option<&Path>, overrides: &[String], shortcuts: Shortcuts) -> anyhow::Result<NerfConfig> {
     let (text, origin) = config_text(file, overrides)?;
     let mut config = NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    if let Some(s) = steps {
-        config.train.steps = s;
-    }
-    if let Some(t) = time_limit {
-        config.train.time_limit = t;
-    }
-    if let Some(s) = seed {
-        config.train.seed = s;
-    }
+    let t = &mut config.train;
+    shortcuts.apply(&mut t.steps, &mut t.time_limit, Some(&mut t.seed));
     config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     Ok(config)
 }
@@ -97,16 +116,12 @@ fn nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     let (mut trainer, mut elapsed) = if args.resume {
         let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
         let mut trainer = loaded.trainer;
-        if let Some(s) = args.steps {
-            trainer.config.train.steps = s;
-        }
-        if let Some(t) = args.time_limit {
-            trainer.config.train.time_limit = t;
-        }
+        let t = &mut trainer.config.train;
+        Shortcuts::of(&args).apply(&mut t.steps, &mut t.time_limit, None);
         tracing::info!("resuming {} at step {}", ckpt.display(), trainer.step);
         (trainer, loaded.header.elapsed)
     } else {
-        let config = nerf_config(args.config.as_deref(), &args.overrides, args.steps, args.time_limit, args.seed)?;
+        let config = nerf_config(args.config.as_deref(), &args.overrides, Shortcuts::of(&args))?;
         (Trainer::for_dataset(config, &dataset, &data, device), 0.0)
     };
     let config_text = toml::to_string(&trainer.config)?;

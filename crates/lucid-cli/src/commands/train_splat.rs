@@ -13,7 +13,7 @@ use lucid_splat::config::SplatConfig;
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
 use lucid_splat::view::SplatRenderer;
 
-use super::train::{config_text, open_log, training_data};
+use super::train::{Shortcuts, config_text, open_log, training_data};
 use crate::cli::TrainModelArgs;
 
 const PHASES: [&str; 4] = ["render", "loss+backward", "optimizer", "densify"];
@@ -22,15 +22,8 @@ const PHASES: [&str; 4] = ["render", "loss+backward", "optimizer", "densify"];
 pub fn splat_config(args: &TrainModelArgs) -> anyhow::Result<SplatConfig> {
     let (text, origin) = config_text(args.config.as_deref(), &args.overrides)?;
     let mut config = SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    if let Some(s) = args.steps {
-        config.train.steps = s;
-    }
-    if let Some(t) = args.time_limit {
-        config.train.time_limit = t;
-    }
-    if let Some(s) = args.seed {
-        config.train.seed = s;
-    }
+    let t = &mut config.train;
+    Shortcuts::of(args).apply(&mut t.steps, &mut t.time_limit, Some(&mut t.seed));
     config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     Ok(config)
 }
@@ -42,12 +35,8 @@ pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
     let (mut trainer, mut elapsed) = if args.resume {
         let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
         let mut trainer = loaded.trainer;
-        if let Some(s) = args.steps {
-            trainer.config.train.steps = s;
-        }
-        if let Some(t) = args.time_limit {
-            trainer.config.train.time_limit = t;
-        }
+        let t = &mut trainer.config.train;
+        Shortcuts::of(&args).apply(&mut t.steps, &mut t.time_limit, None);
         tracing::info!("resuming {} at step {}", ckpt.display(), trainer.step);
         (trainer, loaded.header.elapsed)
     } else {

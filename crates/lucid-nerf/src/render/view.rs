@@ -9,7 +9,7 @@ use lucid_image::Image;
 use lucid_scene::camera::{Camera, PinholeCamera, ThinLensCamera};
 pub use lucid_scene::evaluation::RenderedView;
 use lucid_scene::evaluation::ViewModel;
-use lucid_scene::sampling::Rng;
+use lucid_scene::sampling::stratified_square;
 
 use super::batch::march_rays;
 use super::composite::RAY_OUTPUTS;
@@ -77,13 +77,8 @@ impl ViewRenderer<'_> {
         let per_pixel = if thin.is_some() { rays.max(1) } else { 1 };
         let mut acc = vec![[0f32; RAY_OUTPUTS]; n];
         let mut samples = 0;
-        let side = (per_pixel as f32).sqrt().ceil() as usize;
         for k in 0..per_pixel {
-            let mut rng = Rng::new(seed, k as u64);
-            let offset = Vec2::new(rng.uniform(), rng.uniform());
-            // Stratified lens position for this pass: one cell of a side×side grid.
-            let cell = Vec2::new((k % side) as f32, (k / side) as f32);
-            let lens_u = (cell + offset) / side as f32;
+            let lens_u = stratified_square(k, per_pixel, seed);
             let rays: Vec<(Vec3, Vec3)> = (0..n)
                 .map(|i| {
                     let (px, py) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
