@@ -5,6 +5,7 @@
 //! checked against finite differences (`tests/finite_diff.rs`). [`render`] chains them for
 //! one view. The kernels are plain Rust over slices, parallel over splats and tiles with rayon.
 
+pub mod blend;
 pub mod camera;
 pub mod checkpoint;
 pub mod cloud;
@@ -19,6 +20,7 @@ pub mod project;
 pub mod raster;
 pub mod render;
 pub mod sh;
+pub mod simd;
 pub mod trainer;
 pub mod view;
 

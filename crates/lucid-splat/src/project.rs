@@ -128,8 +128,6 @@ pub struct ProjectedSplat {
     /// Half-widths in pixels of the box outside which the splat's weight is below the blend
     /// threshold or beyond `extent_sigmas` (the smaller): the pixels it can touch.
     pub half_extent: Vec2,
-    /// `ln(min_alpha / opacity)`: exponents below it blend nothing (skips the `exp`).
-    pub log_cutoff: f32,
 }
 
 /// `∂loss/∂` the screen-space quantities of one Gaussian.
@@ -266,7 +264,6 @@ fn forward(p: &SplatParams, i: usize, cam: &SplatCamera, s: &RenderSettings) -> 
         colour: colour.to_array(),
         radius,
         half_extent,
-        log_cutoff: (s.min_alpha / opacity).ln(),
     };
     Some(Forward {
         view,

@@ -8,8 +8,10 @@
 //! once per (tile, splat) pair. Those per-pair gradients are then summed per splat in a
 //! fixed order, so results do not depend on the thread count.
 
-use glam::Vec2;
 use rayon::prelude::*;
+
+use crate::blend::{BackwardRun, ForwardRun, GradLanes, LANES, Run, SplatLanes, backward_run, forward_run};
+use crate::simd::wide;
 
 use crate::project::{ProjectedGrad, ProjectedSplat};
 
@@ -43,8 +45,17 @@ impl TileBins {
 
 /// The pixels a splat can touch along one axis, `[first, last]` (may be empty or off-image):
 /// pixel `i` (centre `i + 0.5`) is in reach when `|i + 0.5 − mean| ≤ half`.
+#[inline(always)]
 fn pixel_span(mean: f32, half: f32) -> (i64, i64) {
-    ((mean - half - 0.5).ceil() as i64, (mean + half - 0.5).floor() as i64)
+    (-floor(half + 0.5 - mean), floor(mean + half - 0.5))
+}
+
+/// `⌊x⌋` for finite `x` in the `i64` range: `f32::floor` is a libm call on baseline x86-64,
+/// and this runs for every (tile, splat) pair.
+#[inline(always)]
+fn floor(x: f32) -> i64 {
+    let i = x as i64;
+    i - ((x < i as f32) as i64)
 }
 
 /// The tiles a splat's pixel box touches, as `[x0, x1) × [y0, y1)`; empty if off-screen.
@@ -94,10 +105,10 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
         .map(|(i, s)| ((s.depth.max(0.0).to_bits() as u64) << 32) | i as u64)
         .collect();
     keys.par_sort_unstable();
-    let order: Vec<u32> = keys.iter().map(|k| *k as u32).collect();
+    let rects: Vec<(u32, (usize, usize, usize, usize))> =
+        keys.par_iter().map(|k| (*k as u32, tile_rect(&splats[*k as u32 as usize], tiles_x, tiles_y))).collect();
     let mut counts = vec![0usize; tiles_x * tiles_y + 1];
-    for &i in &order {
-        let (x0, x1, y0, y1) = tile_rect(&splats[i as usize], tiles_x, tiles_y);
+    for &(_, (x0, x1, y0, y1)) in &rects {
         for ty in y0..y1 {
             for tx in x0..x1 {
                 counts[ty * tiles_x + tx + 1] += 1;
@@ -110,8 +121,7 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     let offsets = counts.clone();
     let mut cursor = counts;
     let mut ids = vec![0u32; *offsets.last().unwrap_or(&0)];
-    for &i in &order {
-        let (x0, x1, y0, y1) = tile_rect(&splats[i as usize], tiles_x, tiles_y);
+    for &(i, (x0, x1, y0, y1)) in &rects {
         for ty in y0..y1 {
             for tx in x0..x1 {
                 let t = ty * tiles_x + tx;
@@ -138,19 +148,12 @@ pub struct PixelState {
     pub blends: u64,
 }
 
-/// The weight exponent of splat `s` at pixel centre `p`.
-#[inline(always)]
-fn power(s: &ProjectedSplat, p: Vec2) -> (f32, f32, f32) {
-    let d = p - s.mean;
-    let [a, b, c] = s.conic;
-    (-0.5 * (a * d.x * d.x + c * d.y * d.y) - b * d.x * d.y, d.x, d.y)
-}
-
-fn tile_pixels(t: usize, bins: &TileBins, width: usize, height: usize) -> impl Iterator<Item = Option<(usize, Vec2)>> {
+/// The image pixels of tile `t`: `(index in the tile, index in the image)`.
+fn tile_pixels(t: usize, bins: &TileBins, width: usize, height: usize) -> impl Iterator<Item = (usize, usize)> {
     let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-    (0..TILE_PIXELS).map(move |k| {
+    (0..TILE_PIXELS).filter_map(move |k| {
         let (x, y) = (tx * TILE + k % TILE, ty * TILE + k / TILE);
-        (x < width && y < height).then(|| (y * width + x, Vec2::new(x as f32 + 0.5, y as f32 + 0.5)))
+        (x < width && y < height).then_some((k, y * width + x))
     })
 }
 
@@ -167,61 +170,54 @@ pub fn rasterize(
     let tiles: Vec<_> = (0..bins.tiles_x * bins.tiles_y)
         .into_par_iter()
         .map(|t| {
-            let local: Vec<ProjectedSplat> =
-                bins.ids[bins.offsets[t]..bins.offsets[t + 1]].iter().map(|&i| splats[i as usize]).collect();
-            let pixels: Vec<Option<(usize, Vec2)>> = tile_pixels(t, bins, width, height).collect();
-            let mut trans = [1.0f32; TILE_PIXELS];
-            let mut colour = [[0.0f32; 3]; TILE_PIXELS];
-            let mut depth = [0.0f32; TILE_PIXELS];
-            let mut blends = 0u64;
-            let mut last = [0u32; TILE_PIXELS];
-            let mut done = [false; TILE_PIXELS];
-            let mut n_done = 0;
-            for (k, d) in done.iter_mut().enumerate() {
-                if pixels[k].is_none() {
-                    *d = true;
-                    n_done += 1;
-                }
-            }
-            let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-            for (j, s) in local.iter().enumerate() {
-                if n_done == TILE_PIXELS {
-                    break;
-                }
-                let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                for ly in y0..y1 {
-                    for lx in x0..x1 {
-                        let k = ly * TILE + lx;
-                        if done[k] {
-                            continue;
-                        }
-                        let p = Vec2::new((tx * TILE + lx) as f32 + 0.5, (ty * TILE + ly) as f32 + 0.5);
-                        let (pw, _, _) = power(s, p);
-                        if pw > 0.0 || pw < s.log_cutoff {
-                            continue;
-                        }
-                        let alpha = (s.opacity * pw.exp()).min(MAX_ALPHA);
-                        if alpha < min_alpha {
-                            continue;
-                        }
-                        let next = trans[k] * (1.0 - alpha);
-                        if next < MIN_TRANSMITTANCE {
-                            done[k] = true;
+            wide(
+                #[inline(always)]
+                || {
+                    let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
+                    let mut trans = [1.0f32; TILE_PIXELS];
+                    let mut rgb = [[0.0f32; TILE_PIXELS]; 3];
+                    let mut depth = [0.0f32; TILE_PIXELS];
+                    let mut last = [0u32; TILE_PIXELS];
+                    let mut done = [0u32; TILE_PIXELS];
+                    let mut n_done = 0;
+                    for (k, d) in done.iter_mut().enumerate() {
+                        if tx * TILE + k % TILE >= width || ty * TILE + k / TILE >= height {
+                            *d = 1;
                             n_done += 1;
-                            continue;
                         }
-                        let w = alpha * trans[k];
-                        for (acc, c) in colour[k].iter_mut().zip(s.colour) {
-                            *acc += c * w;
-                        }
-                        depth[k] += s.depth * w;
-                        blends += 1;
-                        trans[k] = next;
-                        last[k] = j as u32 + 1;
                     }
-                }
-            }
-            (pixels, trans, colour, last, depth, blends)
+                    let mut blends = 0u64;
+                    for (j, &i) in bins.ids[bins.offsets[t]..bins.offsets[t + 1]].iter().enumerate() {
+                        if n_done == TILE_PIXELS {
+                            break;
+                        }
+                        let s = &splats[i as usize];
+                        let lanes_of = SplatLanes::new(s);
+                        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+                        for ly in y0..y1 {
+                            for (o, run) in runs(tx, ty, ly, x0, x1) {
+                                let [r, g, b] = &mut rgb;
+                                let (blended, stopped) = forward_run(
+                                    &lanes_of,
+                                    j as u32 + 1,
+                                    run,
+                                    min_alpha,
+                                    ForwardRun {
+                                        trans: lanes_mut(&mut trans, o),
+                                        rgb: [lanes_mut(r, o), lanes_mut(g, o), lanes_mut(b, o)],
+                                        depth: lanes_mut(&mut depth, o),
+                                        last: lanes_mut(&mut last, o),
+                                        done: lanes_mut(&mut done, o),
+                                    },
+                                );
+                                blends += blended as u64;
+                                n_done += stopped as usize;
+                            }
+                        }
+                    }
+                    (trans, rgb, last, depth, blends)
+                },
+            )
         })
         .collect();
     let mut image = vec![0.0f32; width * height * 4];
@@ -231,12 +227,11 @@ pub fn rasterize(
         depth: vec![0.0; width * height],
         blends: 0,
     };
-    for (pixels, trans, colour, last, depth, blends) in tiles {
+    for (t, (trans, rgb, last, depth, blends)) in tiles.iter().enumerate() {
         state.blends += blends;
-        for (k, px) in pixels.iter().enumerate() {
-            let Some((idx, _)) = *px else { continue };
+        for (k, idx) in tile_pixels(t, bins, width, height) {
             for c in 0..3 {
-                image[4 * idx + c] = colour[k][c] + trans[k] * background[c];
+                image[4 * idx + c] = rgb[c][k] + trans[k] * background[c];
             }
             image[4 * idx + 3] = 1.0 - trans[k];
             state.final_t[idx] = trans[k];
@@ -245,6 +240,34 @@ pub fn rasterize(
         }
     }
     (image, state)
+}
+
+/// The (up to two) 8-pixel runs of tile row `ly` that meet the local box columns `[x0, x1)`,
+/// with their offsets in the tile's arrays.
+#[inline(always)]
+fn runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
+    (0..TILE / LANES).filter_map(move |c| {
+        let (lo, hi) = (c * LANES, (c + 1) * LANES);
+        (x0 < hi && x1 > lo).then(|| {
+            let run = Run {
+                x: (tx * TILE + lo) as f32 + 0.5,
+                y: (ty * TILE + ly) as f32 + 0.5,
+                first: x0.saturating_sub(lo) as f32,
+                end: (x1.min(hi) - lo) as f32,
+            };
+            (ly * TILE + lo, run)
+        })
+    })
+}
+
+#[inline(always)]
+fn lanes_mut<T>(a: &mut [T; TILE_PIXELS], o: usize) -> &mut [T; LANES] {
+    (&mut a[o..o + LANES]).try_into().expect("runs lie inside the tile")
+}
+
+#[inline(always)]
+fn lanes<T>(a: &[T; TILE_PIXELS], o: usize) -> &[T; LANES] {
+    (&a[o..o + LANES]).try_into().expect("runs lie inside the tile")
 }
 
 /// `∂loss/∂` every splat's screen quantities from `∂loss/∂image` (`H×W×4`, as
@@ -264,77 +287,62 @@ pub fn rasterize_backward(
     let per_tile: Vec<Vec<ProjectedGrad>> = (0..bins.tiles_x * bins.tiles_y)
         .into_par_iter()
         .map(|t| {
-            let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
-            let local: Vec<ProjectedSplat> = ids.iter().map(|&i| splats[i as usize]).collect();
-            let mut grads = vec![ProjectedGrad::default(); local.len()];
-            let pixels: Vec<Option<(usize, Vec2)>> = tile_pixels(t, bins, width, height).collect();
-            let mut trans = [0.0f32; TILE_PIXELS];
-            let mut n_contrib = [0u32; TILE_PIXELS];
-            let mut dout = [[0.0f32; 4]; TILE_PIXELS];
-            // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
-            // behind splat i, seeded with the background's share.
-            let mut behind = [[0.0f32; 3]; TILE_PIXELS];
-            let mut t_final = [0.0f32; TILE_PIXELS];
-            let mut max_contrib = 0;
-            for (k, px) in pixels.iter().enumerate() {
-                let Some((idx, _)) = *px else { continue };
-                trans[k] = state.final_t[idx];
-                t_final[k] = state.final_t[idx];
-                n_contrib[k] = state.n_contrib[idx];
-                max_contrib = max_contrib.max(n_contrib[k] as usize);
-                dout[k].copy_from_slice(&grad_image[4 * idx..4 * idx + 4]);
-                for c in 0..3 {
-                    behind[k][c] = t_final[k] * background[c];
-                }
-            }
-            let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-            for j in (0..max_contrib).rev() {
-                let s = &local[j];
-                let mut acc = ProjectedGrad::default();
-                let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                for ly in y0..y1 {
-                    for lx in x0..x1 {
-                        let k = ly * TILE + lx;
-                        if j as u32 >= n_contrib[k] {
-                            continue;
+            wide(
+                #[inline(always)]
+                || {
+                    let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
+                    let mut trans = [0.0f32; TILE_PIXELS];
+                    let mut t_final = [0.0f32; TILE_PIXELS];
+                    let mut n_contrib = [0u32; TILE_PIXELS];
+                    let mut dout = [[0.0f32; TILE_PIXELS]; 4];
+                    // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
+                    // behind splat i, seeded with the background's share.
+                    let mut behind = [[0.0f32; TILE_PIXELS]; 3];
+                    let mut max_contrib = 0;
+                    for (k, idx) in tile_pixels(t, bins, width, height) {
+                        trans[k] = state.final_t[idx];
+                        t_final[k] = state.final_t[idx];
+                        n_contrib[k] = state.n_contrib[idx];
+                        max_contrib = max_contrib.max(n_contrib[k] as usize);
+                        for c in 0..4 {
+                            dout[c][k] = grad_image[4 * idx + c];
                         }
-                        let p = Vec2::new((tx * TILE + lx) as f32 + 0.5, (ty * TILE + ly) as f32 + 0.5);
-                        let (pw, dx, dy) = power(s, p);
-                        if pw > 0.0 || pw < s.log_cutoff {
-                            continue;
-                        }
-                        let g = pw.exp();
-                        let raw = s.opacity * g;
-                        let alpha = raw.min(MAX_ALPHA);
-                        if alpha < min_alpha {
-                            continue;
-                        }
-                        let one_minus = 1.0 - alpha;
-                        let t_i = trans[k] / one_minus;
-                        let w = alpha * t_i;
-                        let d = dout[k];
-                        let mut g_alpha = d[3] * t_final[k] / one_minus;
                         for c in 0..3 {
-                            acc.colour[c] += d[c] * w;
-                            g_alpha += d[c] * (s.colour[c] * t_i - behind[k][c] / one_minus);
-                            behind[k][c] += s.colour[c] * w;
+                            behind[c][k] = t_final[k] * background[c];
                         }
-                        trans[k] = t_i;
-                        if raw > MAX_ALPHA {
-                            continue;
-                        }
-                        acc.opacity += g_alpha * g;
-                        let g_pow = g_alpha * s.opacity * g;
-                        let [a, b, c] = s.conic;
-                        acc.conic[0] += -0.5 * g_pow * dx * dx;
-                        acc.conic[1] += -g_pow * dx * dy;
-                        acc.conic[2] += -0.5 * g_pow * dy * dy;
-                        acc.mean += g_pow * Vec2::new(a * dx + b * dy, b * dx + c * dy);
                     }
-                }
-                grads[j] = acc;
-            }
-            grads
+                    let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
+                    let mut grads = vec![ProjectedGrad::default(); max_contrib];
+                    for j in (0..max_contrib).rev() {
+                        let s = &splats[ids[j] as usize];
+                        let lanes_of = SplatLanes::new(s);
+                        let mut acc = GradLanes::default();
+                        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+                        for ly in y0..y1 {
+                            for (o, run) in runs(tx, ty, ly, x0, x1) {
+                                let [br, bg, bb] = &mut behind;
+                                let [d0, d1, d2, d3] = &dout;
+                                backward_run(
+                                    &lanes_of,
+                                    j as u32,
+                                    run,
+                                    min_alpha,
+                                    BackwardRun {
+                                        trans: lanes_mut(&mut trans, o),
+                                        t_final: lanes(&t_final, o),
+                                        n_contrib: lanes(&n_contrib, o),
+                                        dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
+                                        behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
+                                    },
+                                    &mut acc,
+                                );
+                            }
+                        }
+                        grads[j] = acc.total();
+                    }
+                    grads
+                },
+            )
         })
         .collect();
     // Sum the per-(tile, splat) gradients per splat, in tile order.

@@ -45,6 +45,45 @@ fn single_gaussian_footprint_is_the_analytic_2d_gaussian() {
     assert!(checked > 50, "only {checked} pixels inside the footprint");
 }
 
+/// A long, thin splat lying diagonally on screen: its screen box, the rasterizer's 8-pixel
+/// runs and the lane masks must lose no pixel above the blend threshold and touch none below
+/// it; the image equals `opacity · exp(power)` from the projected conic, computed here for
+/// every pixel.
+#[test]
+fn diagonal_anisotropic_splat_is_complete() {
+    let cam = camera(96, 80);
+    let mut cloud = SplatCloud::default();
+    cloud.push(Vec3::ZERO, 0.02, 0.3, [1.0, 1.0, 1.0]);
+    cloud.log_scales[0] = 0.35f32.ln();
+    // 35° about the viewing axis (y): the long x axis turns towards z on screen.
+    let half = 35f32.to_radians() / 2.0;
+    cloud.rotations.copy_from_slice(&[half.cos(), 0.0, half.sin(), 0.0]);
+    let settings = RenderSettings { background: [0.0; 3], ..Default::default() };
+    let params = cloud.params();
+    let s = lucid_splat::project::project_one(&params, 0, &cam, &settings);
+    assert!(s.radius > 0.0);
+    let (image, _) = render(&params, &cam, &settings);
+    let [a, b, c] = s.conic;
+    let (mut inside, mut checked) = (0, 0);
+    for y in 0..80 {
+        for x in 0..96 {
+            let (dx, dy) = (x as f32 + 0.5 - s.mean.x, y as f32 + 0.5 - s.mean.y);
+            let want = s.opacity * (-0.5 * (a * dx * dx + c * dy * dy) - b * dx * dy).exp();
+            let got = image[4 * (y * 96 + x) + 3];
+            if want >= 1.02 / 255.0 {
+                assert!((got - want).abs() < 1e-5, "pixel ({x}, {y}): {got} vs {want}");
+                inside += 1;
+            } else if want < 0.98 / 255.0 {
+                assert_eq!(got, 0.0, "pixel ({x}, {y}) should be untouched");
+            }
+            checked += 1;
+        }
+    }
+    let (w, h) = (2.0 * s.half_extent.x, 2.0 * s.half_extent.y);
+    println!("{inside} pixels inside the splat, bounding box {w:.0}x{h:.0}, {checked} checked");
+    assert!(inside > 150 && (inside as f32) < 0.5 * w * h, "a thin diagonal splat: {inside} of {w}x{h}");
+}
+
 fn cloud() -> SplatCloud {
     let mut c = SplatCloud::default();
     let mut rng = lucid_scene::sampling::Rng::new(7, 1);

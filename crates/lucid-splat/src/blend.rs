@@ -1,0 +1,252 @@
+//! The compositing kernels of one splat over one 8-pixel run of a tile row, forward and
+//! backward.
+//!
+//! Every lane computes the same straight-line arithmetic and the per-pixel decisions (inside
+//! the splat's box, below the blend threshold, transmittance exhausted, past the pixel's last
+//! contributor) become masks, so the compiler turns each loop into a few SIMD instructions
+//! instead of a branch per pixel; this is where a training step spends most of its time. The
+//! exponential is a polynomial ([`fast_exp`]) for the same reason: a call to libm's `expf`
+//! would keep the loop scalar. Forward and backward use the same function, so the backward
+//! reconstructs the forward's transmittances exactly.
+
+use crate::project::ProjectedSplat;
+
+/// Pixels per run: one AVX register of `f32`, two SSE ones.
+pub const LANES: usize = 8;
+
+/// Each lane's x offset as a float: converting the loop index instead would be a 64-bit
+/// integer conversion per lane, which keeps SSE2 code scalar.
+const LANE_X: [f32; LANES] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+
+/// `eˣ` for `x ≤ 0` to about one ulp (Cephes' `expf` polynomial after the reduction
+/// `x = n·ln 2 + r`, `|r| ≤ ½ ln 2`); inputs below −87 give `e⁻⁸⁷`, above 0 give 1.
+#[inline(always)]
+pub fn fast_exp(x: f32) -> f32 {
+    let x = x.clamp(-87.0, 0.0);
+    // Round x·log₂e to the nearest integer by adding 1.5·2²³: the sum's low mantissa bits
+    // then hold n, which avoids a float-to-int conversion the vectoriser handles poorly.
+    const SHIFTER: f32 = 12_582_912.0;
+    let t = x * std::f32::consts::LOG2_E + SHIFTER;
+    let n = t - SHIFTER;
+    let r = x - n * 0.693_359_4 + n * 2.121_944_4e-4;
+    let mut p = 1.987_569_1e-4f32;
+    p = p * r + 1.398_2e-3;
+    p = p * r + 8.333_452e-3;
+    p = p * r + 4.166_579_6e-2;
+    p = p * r + 0.166_666_65;
+    p = p * r + 0.5;
+    let e = p * r * r + r + 1.0;
+    let n_int = t.to_bits() as i32 - SHIFTER.to_bits() as i32;
+    e * f32::from_bits(((n_int + 127) << 23) as u32)
+}
+
+/// One splat's constants for the kernels: its exponent is `pw = qa·dx² + qb·dx·dy + qc·dy²`.
+#[derive(Clone, Copy, Debug)]
+pub struct SplatLanes {
+    qa: f32,
+    qb: f32,
+    qc: f32,
+    mean_x: f32,
+    mean_y: f32,
+    opacity: f32,
+    colour: [f32; 3],
+    depth: f32,
+    conic: [f32; 3],
+}
+
+impl SplatLanes {
+    /// The kernel constants of a projected splat.
+    #[inline]
+    pub fn new(s: &ProjectedSplat) -> Self {
+        let [a, b, c] = s.conic;
+        Self {
+            qa: -0.5 * a,
+            qb: -b,
+            qc: -0.5 * c,
+            mean_x: s.mean.x,
+            mean_y: s.mean.y,
+            opacity: s.opacity,
+            colour: s.colour,
+            depth: s.depth,
+            conic: s.conic,
+        }
+    }
+}
+
+/// Where a run lies: pixel centre coordinates of its first lane and which lanes the splat's
+/// box covers (`first..end`).
+#[derive(Clone, Copy, Debug)]
+pub struct Run {
+    /// Pixel-centre x of lane 0.
+    pub x: f32,
+    /// Pixel-centre y of the row.
+    pub y: f32,
+    /// First covered lane (as a float, compared with [`LANE_X`]).
+    pub first: f32,
+    /// One past the last covered lane.
+    pub end: f32,
+}
+
+/// Per-pixel forward state of one run, as slices of the tile's arrays.
+pub struct ForwardRun<'a> {
+    /// Transmittance so far.
+    pub trans: &'a mut [f32; LANES],
+    /// Accumulated colour, per channel.
+    pub rgb: [&'a mut [f32; LANES]; 3],
+    /// Accumulated weighted depth.
+    pub depth: &'a mut [f32; LANES],
+    /// Index + 1 of the last splat blended.
+    pub last: &'a mut [u32; LANES],
+    /// 1 once the pixel has stopped (or lies outside the image), else 0.
+    pub done: &'a mut [u32; LANES],
+}
+
+/// Blends splat number `index` of the tile into a run; returns `(blends, pixels stopped)`.
+#[inline(always)]
+pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: ForwardRun<'_>) -> (u32, u32) {
+    let dy = run.y - s.mean_y;
+    let (cy, by) = (s.qc * dy * dy, s.qb * dy);
+    let dx0 = run.x - s.mean_x;
+    let (mut blends, mut stopped) = (0u32, 0u32);
+    // Local copies: the compiler cannot prove that references held in a struct do not alias,
+    // and would not vectorise the loop over them.
+    let [pr, pg, pb] = px.rgb;
+    let (mut r, mut g, mut b) = (*pr, *pg, *pb);
+    let (mut trans, mut depth, mut last, mut done) = (*px.trans, *px.depth, *px.last, *px.done);
+    for l in 0..LANES {
+        let dx = dx0 + LANE_X[l];
+        let pw = (s.qa * dx + by) * dx + cy;
+        let alpha = (s.opacity * fast_exp(pw)).min(crate::raster::MAX_ALPHA);
+        let covered = (LANE_X[l] >= run.first) & (LANE_X[l] < run.end);
+        let ok = covered & (done[l] == 0) & (alpha >= min_alpha);
+        let t = trans[l];
+        let next = t * (1.0 - alpha);
+        let stop = ok & (next < crate::raster::MIN_TRANSMITTANCE);
+        let blend = ok & !stop;
+        // Every update is unconditional arithmetic with a 0/1 factor (exact either way): a
+        // conditional store, or a select the compiler turns into a branch, would stop the
+        // vectoriser.
+        let on = blend as u32 as f32;
+        let w = alpha * t * on;
+        r[l] += s.colour[0] * w;
+        g[l] += s.colour[1] * w;
+        b[l] += s.colour[2] * w;
+        depth[l] += s.depth * w;
+        trans[l] = t * (1.0 - alpha * on);
+        // Indices only grow along the tile's list.
+        last[l] = last[l].max(blend as u32 * index);
+        done[l] |= stop as u32;
+        blends += blend as u32;
+        stopped += stop as u32;
+    }
+    (*pr, *pg, *pb) = (r, g, b);
+    (*px.trans, *px.depth, *px.last, *px.done) = (trans, depth, last, done);
+    (blends, stopped)
+}
+
+/// Per-pixel backward state of one run.
+pub struct BackwardRun<'a> {
+    /// Transmittance in front of the splat being visited (walked back from the final one).
+    pub trans: &'a mut [f32; LANES],
+    /// Final transmittance.
+    pub t_final: &'a [f32; LANES],
+    /// Contributors of the pixel (splats at or past it are skipped).
+    pub n_contrib: &'a [u32; LANES],
+    /// `∂loss/∂` RGB and alpha.
+    pub dout: [&'a [f32; LANES]; 4],
+    /// Colour of everything behind the splat being visited, background share included.
+    pub behind: [&'a mut [f32; LANES]; 3],
+}
+
+/// Per-lane sums of one splat's screen-space gradient over the runs it covers.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GradLanes {
+    colour: [[f32; LANES]; 3],
+    opacity: [f32; LANES],
+    conic: [[f32; LANES]; 3],
+    mean: [[f32; LANES]; 2],
+}
+
+impl GradLanes {
+    /// The lane sums as one gradient, added in a fixed order.
+    pub fn total(&self) -> crate::project::ProjectedGrad {
+        let sum = |v: &[f32; LANES]| v.iter().sum::<f32>();
+        crate::project::ProjectedGrad {
+            mean: glam::Vec2::new(sum(&self.mean[0]), sum(&self.mean[1])),
+            conic: self.conic.each_ref().map(sum),
+            opacity: sum(&self.opacity),
+            colour: self.colour.each_ref().map(sum),
+        }
+    }
+}
+
+/// Undoes splat number `index` (0-based) of the tile in a run, back to front, adding its
+/// gradient into `acc`.
+#[inline(always)]
+pub fn backward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: BackwardRun<'_>, acc: &mut GradLanes) {
+    let dy = run.y - s.mean_y;
+    let (cy, by) = (s.qc * dy * dy, s.qb * dy);
+    let dx0 = run.x - s.mean_x;
+    let [a, b, c] = s.conic;
+    // Local copies, as in the forward.
+    let mut behind = px.behind.each_ref().map(|b| **b);
+    let mut trans = *px.trans;
+    let (t_final, n_contrib) = (*px.t_final, *px.n_contrib);
+    let dout = px.dout.map(|d| *d);
+    let mut sums = *acc;
+    for l in 0..LANES {
+        let dx = dx0 + LANE_X[l];
+        let pw = (s.qa * dx + by) * dx + cy;
+        let g = fast_exp(pw);
+        let raw = s.opacity * g;
+        let alpha = raw.min(crate::raster::MAX_ALPHA);
+        let covered = (LANE_X[l] >= run.first) & (LANE_X[l] < run.end);
+        let ok = covered & (index < n_contrib[l]) & (alpha >= min_alpha);
+        let inv = 1.0 / (1.0 - alpha);
+        let t_i = trans[l] * inv;
+        let unblend = if ok { inv } else { 1.0 };
+        let w = if ok { alpha * t_i } else { 0.0 };
+        let mut g_alpha = dout[3][l] * t_final[l] * inv;
+        for ch in 0..3 {
+            g_alpha += dout[ch][l] * (s.colour[ch] * t_i - behind[ch][l] * inv);
+            sums.colour[ch][l] += dout[ch][l] * w;
+            behind[ch][l] += s.colour[ch] * w;
+        }
+        // Unconditional, as in the forward, so that the loop vectorises.
+        trans[l] *= unblend;
+        // Where the opacity cap binds, α no longer depends on the splat's parameters.
+        let slope = ok & (raw <= crate::raster::MAX_ALPHA);
+        let g_pow = if slope { g_alpha * raw } else { 0.0 };
+        sums.opacity[l] += if slope { g_alpha * g } else { 0.0 };
+        sums.conic[0][l] += -0.5 * g_pow * dx * dx;
+        sums.conic[1][l] += -g_pow * dx * dy;
+        sums.conic[2][l] += -0.5 * g_pow * dy * dy;
+        sums.mean[0][l] += g_pow * (a * dx + b * dy);
+        sums.mean[1][l] += g_pow * (b * dx + c * dy);
+    }
+    for (dst, src) in px.behind.into_iter().zip(behind) {
+        *dst = src;
+    }
+    *px.trans = trans;
+    *acc = sums;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_exp_matches_std_to_a_few_ulps() {
+        let mut worst = 0.0f32;
+        let mut x = -87.0f32;
+        while x <= 0.0 {
+            let (got, want) = (fast_exp(x), x.exp());
+            worst = worst.max(((got - want) / want).abs());
+            x += 0.001;
+        }
+        assert!(worst < 4e-7, "relative error {worst}");
+        assert_eq!(fast_exp(0.0), 1.0);
+        assert_eq!(fast_exp(5.0), 1.0, "clamped above at 0");
+        assert!(fast_exp(-1000.0) > 0.0 && fast_exp(-1000.0) < 1e-37);
+    }
+}
