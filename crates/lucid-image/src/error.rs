@@ -48,7 +48,8 @@ pub enum ImageError {
 }
 
 impl ImageError {
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+    /// An I/O failure on `path` (for callers of [`crate::write_atomically`] writing their own bytes).
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
         Self::Io { path: path.to_path_buf(), source }
     }
 

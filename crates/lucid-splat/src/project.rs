@@ -256,15 +256,7 @@ fn forward(p: &SplatParams, i: usize, cam: &SplatCamera, s: &RenderSettings) -> 
         raw_colour += *y * *c;
     }
     let colour = raw_colour.max(Vec3::ZERO);
-    let out = ProjectedSplat {
-        mean: centre,
-        conic,
-        depth: z,
-        opacity,
-        colour: colour.to_array(),
-        radius,
-        half_extent,
-    };
+    let out = ProjectedSplat { mean: centre, conic, depth: z, opacity, colour: colour.to_array(), radius, half_extent };
     Some(Forward {
         view,
         clamped,

@@ -18,6 +18,8 @@ use crate::project::{ProjectedGrad, ProjectedSplat};
 /// Tile side in pixels.
 pub const TILE: usize = 16;
 const TILE_PIXELS: usize = TILE * TILE;
+/// 8-pixel runs per tile.
+const RUNS: usize = TILE_PIXELS / LANES;
 /// Opacity cap: no splat fully hides what is behind it (keeps the backward's division safe).
 pub const MAX_ALPHA: f32 = 0.99;
 /// A pixel stops once its transmittance would fall below this.
@@ -180,10 +182,14 @@ pub fn rasterize(
                     let mut last = [0u32; TILE_PIXELS];
                     let mut done = [0u32; TILE_PIXELS];
                     let mut n_done = 0;
+                    // Pixels still blending per run: runs whose pixels have all stopped are
+                    // skipped (behind an opaque surface most of a tile's list is).
+                    let mut live = [LANES as u32; RUNS];
                     for (k, d) in done.iter_mut().enumerate() {
                         if tx * TILE + k % TILE >= width || ty * TILE + k / TILE >= height {
                             *d = 1;
                             n_done += 1;
+                            live[k / LANES] -= 1;
                         }
                     }
                     let mut blends = 0u64;
@@ -196,6 +202,9 @@ pub fn rasterize(
                         let (x0, x1, y0, y1) = local_rect(s, tx, ty);
                         for ly in y0..y1 {
                             for (o, run) in runs(tx, ty, ly, x0, x1) {
+                                if live[o / LANES] == 0 {
+                                    continue;
+                                }
                                 let [r, g, b] = &mut rgb;
                                 let (blended, stopped) = forward_run(
                                     &lanes_of,
@@ -212,6 +221,7 @@ pub fn rasterize(
                                 );
                                 blends += blended as u64;
                                 n_done += stopped as usize;
+                                live[o / LANES] -= stopped;
                             }
                         }
                     }

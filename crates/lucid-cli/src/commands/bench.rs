@@ -28,6 +28,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
+        BenchTarget::Hdr => super::bench_hdr::run(args.quick)?,
     };
     if let Some(path) = &args.json {
         super::write_text(path, &serde_json::to_string_pretty(&result)?)?;

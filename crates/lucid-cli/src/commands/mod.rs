@@ -1,12 +1,14 @@
 //! One module per subcommand; each exposes `run(args) -> anyhow::Result<()>`.
 
 mod bench;
+mod bench_hdr;
 mod bench_nerf;
 mod bench_splat;
 mod convert;
 pub mod demo;
 mod eval;
 pub mod generate;
+mod hdr;
 mod info;
 mod metrics;
 mod model;
@@ -14,6 +16,7 @@ mod refocus;
 mod render;
 mod render_model;
 mod rig_file;
+mod tonemap;
 mod train;
 mod train_splat;
 
@@ -36,6 +39,8 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Refocus(args) => refocus::run(args),
         Command::Train(args) => train::run(args),
         Command::Eval(args) => eval::run(args),
+        Command::Hdr(args) => hdr::run(args),
+        Command::Tonemap(args) => tonemap::run(args),
     }
 }
 
