@@ -213,6 +213,41 @@ pub enum TrainModel {
     Nerf(TrainModelArgs),
     /// 3D Gaussian splatting (tile rasterizer, densification; exports a standard .ply).
     Splat(TrainModelArgs),
+    /// Inverse tone mapping network (LDR to HDR) on `brackets` datasets.
+    Itm(TrainItmArgs),
+}
+
+/// `lucid train itm`.
+#[derive(Debug, Args)]
+pub struct TrainItmArgs {
+    /// Dataset folders made by the `brackets` rig (several scenes; their train splits train,
+    /// their test splits evaluate).
+    #[arg(required = true)]
+    pub datasets: Vec<PathBuf>,
+    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, eval_test/metrics.json.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Configuration file (configs/itm/default.toml); defaults are used for missing keys.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Override any configuration key, e.g. `--set train.batch=4` (repeatable; TOML values).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Optimiser steps (train.steps).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Stop after this many seconds of training (train.time_limit).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Random seed (train.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Continue from OUTPUT/checkpoint.lucid.
+    #[arg(long)]
+    pub resume: bool,
+    /// Skip the evaluation on the test splits at the end.
+    #[arg(long)]
+    pub no_eval: bool,
 }
 
 /// `lucid train nerf|splat`.

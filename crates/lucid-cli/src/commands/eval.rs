@@ -21,6 +21,9 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         "test" => Split::Test,
         other => bail!("--split must be train, val or test, got {other}"),
     };
+    if lucid_burn::checkpoint::read_kind(&args.checkpoint)? == lucid_itm::checkpoint::ITM_KIND {
+        return super::eval_itm::run(&args, split);
+    }
     let loaded = LoadedModel::load(&args.checkpoint)?;
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;

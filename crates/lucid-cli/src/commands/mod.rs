@@ -7,6 +7,7 @@ mod bench_splat;
 mod convert;
 pub mod demo;
 mod eval;
+mod eval_itm;
 pub mod generate;
 mod hdr;
 mod info;
@@ -18,6 +19,7 @@ mod render_model;
 mod rig_file;
 mod tonemap;
 mod train;
+mod train_itm;
 mod train_splat;
 
 use anyhow::{Context, bail};

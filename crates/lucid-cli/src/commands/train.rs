@@ -18,6 +18,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
     match args.model {
         TrainModel::Nerf(args) => nerf(args),
         TrainModel::Splat(args) => super::train_splat::run(args),
+        TrainModel::Itm(args) => super::train_itm::run(args),
     }
 }
 
