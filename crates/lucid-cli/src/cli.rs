@@ -52,6 +52,112 @@ pub enum Command {
     Hdr(HdrArgs),
     /// Tone map an HDR image to a display image with a global or local operator.
     Tonemap(TonemapArgs),
+    /// Relight a view of an OLAT dataset under an environment map (light transport matrix).
+    Relight(RelightArgs),
+    /// Environment-map tools: mirror ball <-> lat-long, SH projection and irradiance, median cut.
+    Envmap(EnvmapArgs),
+}
+
+/// How environment maps become light weights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum WeightingArg {
+    /// The map integrated over each light's spherical Voronoi cell.
+    Cell,
+    /// The map's radiance at each light times its Voronoi cell's solid angle.
+    Point,
+    /// Each map direction shared among its three nearest lights by barycentric coordinates.
+    Barycentric,
+}
+
+/// `lucid relight`.
+#[derive(Debug, Args)]
+pub struct RelightArgs {
+    /// An OLAT dataset (`lucid gen SCENE --rig olat`).
+    pub dataset: PathBuf,
+    /// Environment map (lat-long EXR/HDR, +Z up). Without it, every environment the dataset
+    /// has path-traced truths for is used and scored.
+    #[arg(long)]
+    pub env: Option<PathBuf>,
+    /// Output image (with --env).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Which view (index among the split's OLAT views).
+    #[arg(long, default_value_t = 0)]
+    pub view: usize,
+    /// Which split.
+    #[arg(long, value_enum, default_value_t = SplitArg::Test)]
+    pub split: SplitArg,
+    /// How the map becomes light weights.
+    #[arg(long, value_enum, default_value_t = WeightingArg::Cell)]
+    pub weights: WeightingArg,
+    /// Print the results as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `lucid envmap`.
+#[derive(Debug, Args)]
+pub struct EnvmapArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: EnvmapCommand,
+}
+
+/// Environment-map subcommands.
+#[derive(Debug, Subcommand)]
+pub enum EnvmapCommand {
+    /// A lat-long map from a mirror-ball photograph (camera on +Y looking at the ball, +Z up).
+    FromMirrorBall {
+        /// Mirror-ball image (the ball filling the square image).
+        input: PathBuf,
+        /// Output lat-long map.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Width of the map (height is half).
+        #[arg(long, default_value_t = 512)]
+        width: usize,
+    },
+    /// A mirror-ball image of a lat-long map.
+    ToMirrorBall {
+        /// Lat-long map.
+        input: PathBuf,
+        /// Output image.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Side of the square image.
+        #[arg(long, default_value_t = 512)]
+        size: usize,
+    },
+    /// The 9 spherical-harmonic coefficients of a map, and optionally its irradiance map.
+    Sh {
+        /// Lat-long map.
+        input: PathBuf,
+        /// Also write the irradiance map (lat-long, same size) reconstructed from the SH.
+        #[arg(long)]
+        irradiance: Option<PathBuf>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Median-cut light extraction.
+    MedianCut {
+        /// Lat-long map.
+        input: PathBuf,
+        /// Number of lights.
+        #[arg(long, default_value_t = 16)]
+        lights: usize,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Solid angles of the spherical Voronoi cells of light directions (x,y,z;x,y,z;...).
+    Voronoi {
+        /// Directions, `x,y,z` separated by `;`.
+        directions: String,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 /// `lucid hdr`.

@@ -6,6 +6,7 @@ mod bench_nerf;
 mod bench_splat;
 mod convert;
 pub mod demo;
+mod envmap;
 mod eval;
 mod eval_itm;
 pub mod generate;
@@ -14,6 +15,7 @@ mod info;
 mod metrics;
 mod model;
 mod refocus;
+mod relight;
 mod render;
 mod render_model;
 mod rig_file;
@@ -43,6 +45,8 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Eval(args) => eval::run(args),
         Command::Hdr(args) => hdr::run(args),
         Command::Tonemap(args) => tonemap::run(args),
+        Command::Relight(args) => relight::run(args),
+        Command::Envmap(args) => envmap::run(args),
     }
 }
 

@@ -1,0 +1,97 @@
+//! `lucid envmap ...`: environment-map tools.
+
+use anyhow::{Context, bail};
+use glam::Vec3;
+use lucid_image::{read_image, write_image};
+use lucid_relight::envmap::{latlong_to_mirror_ball, mirror_ball_to_latlong};
+use lucid_relight::median_cut::median_cut;
+use lucid_relight::sh::{irradiance_map, project};
+use lucid_relight::voronoi::voronoi_solid_angles;
+use serde_json::json;
+
+use crate::cli::{EnvmapArgs, EnvmapCommand};
+
+fn parse_directions(text: &str) -> anyhow::Result<Vec<Vec3>> {
+    text.split(';')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| {
+            let v: Vec<f32> = s
+                .split(',')
+                .map(|x| x.trim().parse::<f32>().with_context(|| format!("direction {s:?}: {x:?} is not a number")))
+                .collect::<anyhow::Result<_>>()?;
+            if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+                bail!("direction {s:?}: expected x,y,z with finite numbers");
+            }
+            let d = Vec3::new(v[0], v[1], v[2]);
+            if d.length() == 0.0 {
+                bail!("direction {s:?} is zero");
+            }
+            Ok(d)
+        })
+        .collect()
+}
+
+pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
+    match args.command {
+        EnvmapCommand::FromMirrorBall { input, output, width } => {
+            let ball = read_image(&input)?;
+            if ball.width() != ball.height() {
+                bail!("{}: a mirror-ball image is square, this is {}x{}", input.display(), ball.width(), ball.height());
+            }
+            write_image(&output, &mirror_ball_to_latlong(&ball, width.max(2)))?;
+        }
+        EnvmapCommand::ToMirrorBall { input, output, size } => {
+            write_image(&output, &latlong_to_mirror_ball(&read_image(&input)?, size.max(1)))?;
+        }
+        EnvmapCommand::Sh { input, irradiance, json } => {
+            let map = read_image(&input)?;
+            let coeffs = project(&map);
+            if let Some(out) = irradiance {
+                write_image(&out, &irradiance_map(&coeffs, map.width(), map.height()))?;
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&json!({ "coefficients": coeffs }))?);
+            } else {
+                let names = ["L00", "L1-1", "L10", "L11", "L2-2", "L2-1", "L20", "L21", "L22"];
+                println!("{:<6} {:>12} {:>12} {:>12}", "coeff", "red", "green", "blue");
+                for (n, c) in names.iter().zip(coeffs) {
+                    println!("{n:<6} {:>12.5} {:>12.5} {:>12.5}", c[0], c[1], c[2]);
+                }
+            }
+        }
+        EnvmapCommand::MedianCut { input, lights, json } => {
+            if lights == 0 {
+                bail!("--lights must be at least 1");
+            }
+            let cut = median_cut(&read_image(&input)?, lights);
+            if json {
+                let v: Vec<_> =
+                    cut.iter().map(|l| json!({ "direction": l.direction.to_array(), "energy": l.energy })).collect();
+                println!("{}", serde_json::to_string_pretty(&json!({ "lights": v }))?);
+            } else {
+                println!("{:>4} {:>26} {:>36}", "#", "direction", "energy (∫L dω per channel)");
+                for (k, l) in cut.iter().enumerate() {
+                    let d = l.direction;
+                    println!(
+                        "{k:>4} {:>8.4} {:>8.4} {:>8.4} {:>12.5} {:>12.5} {:>12.5}",
+                        d.x, d.y, d.z, l.energy[0], l.energy[1], l.energy[2]
+                    );
+                }
+            }
+        }
+        EnvmapCommand::Voronoi { directions, json } => {
+            let dirs = parse_directions(&directions)?;
+            let angles = voronoi_solid_angles(&dirs)?;
+            let total: f64 = angles.iter().sum();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&json!({ "solid_angles": angles, "total": total }))?);
+            } else {
+                for (d, a) in dirs.iter().zip(&angles) {
+                    println!("{:>8.4} {:>8.4} {:>8.4}  {a:.6} sr", d.x, d.y, d.z);
+                }
+                println!("total {total:.6} sr (4π = {:.6})", 4.0 * std::f64::consts::PI);
+            }
+        }
+    }
+    Ok(())
+}
