@@ -36,6 +36,13 @@ pub struct TileBins {
     pub offsets: Vec<usize>,
     /// Splat index of each (tile, splat) pair.
     pub ids: Vec<u32>,
+    /// The binned splats, nearest first.
+    pub splats: Vec<u32>,
+    /// `splat_offsets[k]..splat_offsets[k+1]` indexes `splat_pairs` for `splats[k]`.
+    pub splat_offsets: Vec<usize>,
+    /// Positions in `ids` of each binned splat's pairs, in tile order: the backward sums a
+    /// splat's per-tile gradients through them, in parallel over splats.
+    pub splat_pairs: Vec<u32>,
 }
 
 impl TileBins {
@@ -122,17 +129,24 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     }
     let offsets = counts.clone();
     let mut cursor = counts;
-    let mut ids = vec![0u32; *offsets.last().unwrap_or(&0)];
+    let pairs = *offsets.last().unwrap_or(&0);
+    let mut ids = vec![0u32; pairs];
+    let mut splat_offsets = Vec::with_capacity(rects.len() + 1);
+    let mut splat_pairs = Vec::with_capacity(pairs);
+    splat_offsets.push(0);
     for &(i, (x0, x1, y0, y1)) in &rects {
         for ty in y0..y1 {
             for tx in x0..x1 {
                 let t = ty * tiles_x + tx;
                 ids[cursor[t]] = i;
+                splat_pairs.push(cursor[t] as u32);
                 cursor[t] += 1;
             }
         }
+        splat_offsets.push(splat_pairs.len());
     }
-    TileBins { tiles_x, tiles_y, offsets, ids }
+    let splats = rects.iter().map(|r| r.0).collect();
+    TileBins { tiles_x, tiles_y, offsets, ids, splats, splat_offsets, splat_pairs }
 }
 
 /// What the backward needs from the forward, per pixel.
@@ -294,73 +308,86 @@ pub fn rasterize_backward(
     grad_image: &[f32],
 ) -> Vec<ProjectedGrad> {
     assert_eq!(grad_image.len(), width * height * 4, "image gradient must be H×W×4");
-    let per_tile: Vec<Vec<ProjectedGrad>> = (0..bins.tiles_x * bins.tiles_y)
+    // One gradient per (tile, splat) pair, each tile writing its own slice.
+    let mut flat = vec![ProjectedGrad::default(); bins.pairs()];
+    let mut slices: Vec<&mut [ProjectedGrad]> = Vec::with_capacity(bins.tiles_x * bins.tiles_y);
+    let mut rest = flat.as_mut_slice();
+    for t in 0..bins.tiles_x * bins.tiles_y {
+        let (head, tail) = rest.split_at_mut(bins.offsets[t + 1] - bins.offsets[t]);
+        slices.push(head);
+        rest = tail;
+    }
+    slices.into_par_iter().enumerate().for_each(|(t, grads)| {
+        wide(
+            #[inline(always)]
+            || {
+                let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
+                let mut trans = [0.0f32; TILE_PIXELS];
+                let mut t_final = [0.0f32; TILE_PIXELS];
+                let mut n_contrib = [0u32; TILE_PIXELS];
+                let mut dout = [[0.0f32; TILE_PIXELS]; 4];
+                // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
+                // behind splat i, seeded with the background's share.
+                let mut behind = [[0.0f32; TILE_PIXELS]; 3];
+                let mut max_contrib = 0;
+                for (k, idx) in tile_pixels(t, bins, width, height) {
+                    trans[k] = state.final_t[idx];
+                    t_final[k] = state.final_t[idx];
+                    n_contrib[k] = state.n_contrib[idx];
+                    max_contrib = max_contrib.max(n_contrib[k] as usize);
+                    for c in 0..4 {
+                        dout[c][k] = grad_image[4 * idx + c];
+                    }
+                    for c in 0..3 {
+                        behind[c][k] = t_final[k] * background[c];
+                    }
+                }
+                let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
+                for j in (0..max_contrib).rev() {
+                    let s = &splats[ids[j] as usize];
+                    let lanes_of = SplatLanes::new(s);
+                    let mut acc = GradLanes::default();
+                    let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+                    for ly in y0..y1 {
+                        for (o, run) in runs(tx, ty, ly, x0, x1) {
+                            let [br, bg, bb] = &mut behind;
+                            let [d0, d1, d2, d3] = &dout;
+                            backward_run(
+                                &lanes_of,
+                                j as u32,
+                                run,
+                                min_alpha,
+                                BackwardRun {
+                                    trans: lanes_mut(&mut trans, o),
+                                    t_final: lanes(&t_final, o),
+                                    n_contrib: lanes(&n_contrib, o),
+                                    dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
+                                    behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
+                                },
+                                &mut acc,
+                            );
+                        }
+                    }
+                    grads[j] = acc.total();
+                }
+            },
+        )
+    });
+    // Sum each splat's per-tile gradients, in tile order (so the result does not depend on
+    // the thread count), in parallel over splats.
+    let sums: Vec<ProjectedGrad> = (0..bins.splats.len())
         .into_par_iter()
-        .map(|t| {
-            wide(
-                #[inline(always)]
-                || {
-                    let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
-                    let mut trans = [0.0f32; TILE_PIXELS];
-                    let mut t_final = [0.0f32; TILE_PIXELS];
-                    let mut n_contrib = [0u32; TILE_PIXELS];
-                    let mut dout = [[0.0f32; TILE_PIXELS]; 4];
-                    // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
-                    // behind splat i, seeded with the background's share.
-                    let mut behind = [[0.0f32; TILE_PIXELS]; 3];
-                    let mut max_contrib = 0;
-                    for (k, idx) in tile_pixels(t, bins, width, height) {
-                        trans[k] = state.final_t[idx];
-                        t_final[k] = state.final_t[idx];
-                        n_contrib[k] = state.n_contrib[idx];
-                        max_contrib = max_contrib.max(n_contrib[k] as usize);
-                        for c in 0..4 {
-                            dout[c][k] = grad_image[4 * idx + c];
-                        }
-                        for c in 0..3 {
-                            behind[c][k] = t_final[k] * background[c];
-                        }
-                    }
-                    let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-                    let mut grads = vec![ProjectedGrad::default(); max_contrib];
-                    for j in (0..max_contrib).rev() {
-                        let s = &splats[ids[j] as usize];
-                        let lanes_of = SplatLanes::new(s);
-                        let mut acc = GradLanes::default();
-                        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                        for ly in y0..y1 {
-                            for (o, run) in runs(tx, ty, ly, x0, x1) {
-                                let [br, bg, bb] = &mut behind;
-                                let [d0, d1, d2, d3] = &dout;
-                                backward_run(
-                                    &lanes_of,
-                                    j as u32,
-                                    run,
-                                    min_alpha,
-                                    BackwardRun {
-                                        trans: lanes_mut(&mut trans, o),
-                                        t_final: lanes(&t_final, o),
-                                        n_contrib: lanes(&n_contrib, o),
-                                        dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
-                                        behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
-                                    },
-                                    &mut acc,
-                                );
-                            }
-                        }
-                        grads[j] = acc.total();
-                    }
-                    grads
-                },
-            )
+        .map(|k| {
+            let mut g = ProjectedGrad::default();
+            for &p in &bins.splat_pairs[bins.splat_offsets[k]..bins.splat_offsets[k + 1]] {
+                g += flat[p as usize];
+            }
+            g
         })
         .collect();
-    // Sum the per-(tile, splat) gradients per splat, in tile order.
     let mut out = vec![ProjectedGrad::default(); splats.len()];
-    for (t, grads) in per_tile.iter().enumerate() {
-        for (g, &i) in grads.iter().zip(&bins.ids[bins.offsets[t]..bins.offsets[t + 1]]) {
-            out[i as usize] += *g;
-        }
+    for (&i, g) in bins.splats.iter().zip(sums) {
+        out[i as usize] = g;
     }
     out
 }
