@@ -25,11 +25,28 @@ fn main() -> ExitCode {
     match commands::run(args.command, &matches) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            // `{:#}` joins the context chain on one line: "reading x.json: x.json: frames[2]…".
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", one_line(&error));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error's context chain on one line ("reading x.json: x.json: frames[2]…"), leaving out
+/// causes whose text an outer message already shows (library errors often print their
+/// source and also expose it as the next link of the chain).
+fn one_line(error: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }
 
 fn init_logging(verbose: u8, quiet: bool) {
