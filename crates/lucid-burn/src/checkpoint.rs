@@ -90,7 +90,7 @@ pub fn read_kind_sections(path: &Path, kind: &str) -> Result<(serde_json::Value,
     let (value, sections): (serde_json::Value, _) = parse(path, &bytes)?;
     let found = value.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown");
     if found != kind {
-        return Err(invalid(path, format!("a '{found}' checkpoint, expected a '{kind}' one")));
+        return Err(invalid(path, format!("the checkpoint holds a '{found}' model, expected '{kind}'")));
     }
     let sections = sections.into_iter().map(<[u8]>::to_vec).collect();
     Ok((value, sections))

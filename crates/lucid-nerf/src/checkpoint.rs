@@ -159,7 +159,7 @@ mod tests {
             load(&p, &crate::backend::default_device()).err().expect("an error").to_string()
         };
         let splat = with_header(&bytes, |h| h.replace("\"kind\": \"nerf\"", "\"kind\": \"splat\""));
-        assert!(err(&splat).contains("a 'splat' checkpoint, expected a 'nerf' one"), "{}", err(&splat));
+        assert!(err(&splat).contains("holds a 'splat' model, expected 'nerf'"), "{}", err(&splat));
         let mut version = bytes.clone();
         version[8] = 9;
         assert!(err(&version).contains("version 9"), "{}", err(&version));
