@@ -30,10 +30,15 @@ pub fn blend(linear: [f32; 3], predicted: [f32; 3], alpha: f32) -> [f32; 3] {
 pub fn analytic_itm(ldr: &Image, boost_stops: f32) -> Image {
     ldr.map(|p| {
         let y = [p[0], p[1], p[2]].map(lucid_image::color::srgb_encode);
-        let alpha = clip_mask(y, MASK_THRESHOLD);
-        let gain = (boost_stops * alpha * alpha).exp2();
+        let gain = highlight_gain(clip_mask(y, MASK_THRESHOLD), boost_stops);
         [p[0] * gain, p[1] * gain, p[2] * gain, p[3]]
     })
+}
+
+/// The analytic baseline's gain on the linearised input at mask value `alpha`:
+/// `2^(boost·α²)`.
+pub fn highlight_gain(alpha: f32, boost_stops: f32) -> f32 {
+    (boost_stops * alpha * alpha).exp2()
 }
 
 /// The linearised value of a display value (the inverse of the sRGB response the generator's
@@ -45,21 +50,10 @@ pub fn linearise(y: f32) -> f32 {
 /// Floor of radiance in the log metrics: 10⁻⁴ of the exposure that clips.
 pub const LOG_FLOOR: f32 = 1e-4;
 
-/// Squared error sums of `log₁₀` radiance over the pixels `mask` selects (all when `None`):
-/// `(Σ err², count)`, to be pooled over images before taking the PSNR.
-pub fn log_squared_error(prediction: &Image, truth: &Image, mask: Option<&[bool]>) -> (f64, usize) {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for (i, (p, t)) in prediction.pixels().iter().zip(truth.pixels()).enumerate() {
-        if mask.is_some_and(|m| !m[i]) {
-            continue;
-        }
-        for c in 0..3 {
-            let d = p[c].max(LOG_FLOOR).log10() - t[c].max(LOG_FLOOR).log10();
-            sum += (d * d) as f64;
-        }
-        n += 3;
-    }
-    (sum, n)
+/// The `log₁₀` radiance difference the log metrics pool, both values floored at
+/// [`LOG_FLOOR`].
+pub fn log_difference(prediction: f32, truth: f32) -> f32 {
+    prediction.max(LOG_FLOOR).log10() - truth.max(LOG_FLOOR).log10()
 }
 
 /// Log-domain PSNR from pooled squared errors, with the peak the dynamic range of the

@@ -4,7 +4,7 @@
 //! response.
 
 use burn::tensor::{Device, Tensor, TensorData};
-use lucid_hdr::itm::{LOG_FLOOR, log_psnr};
+use lucid_hdr::itm::{highlight_gain, log_difference, log_psnr};
 use lucid_image::color::srgb_encode;
 use serde::Serialize;
 
@@ -53,7 +53,7 @@ impl Sums {
         for c in 0..3 {
             for i in 0..n {
                 let (p, t) = (pred[c * n + i], img.truth[c * n + i]);
-                let d = (p.max(LOG_FLOOR).log10() - t.max(LOG_FLOOR).log10()) as f64;
+                let d = log_difference(p, t) as f64;
                 self.all.0 += d * d;
                 self.all.1 += 1;
                 if img.mask[i] > 0.0 {
@@ -91,7 +91,7 @@ pub fn analytic(img: &ItmImage) -> Vec<f32> {
     let n = img.width * img.height;
     let mut out = img.linear.clone();
     for i in 0..n {
-        let gain = (BASELINE_BOOST_STOPS * img.mask[i] * img.mask[i]).exp2();
+        let gain = highlight_gain(img.mask[i], BASELINE_BOOST_STOPS);
         for c in 0..3 {
             out[c * n + i] *= gain;
         }

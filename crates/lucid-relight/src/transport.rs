@@ -130,39 +130,15 @@ pub fn light_weights(
     env: &Image,
     weighting: Weighting,
 ) -> Result<Vec<[f32; 3]>, RelightError> {
-    let (w, h) = env.dimensions();
     match weighting {
         Weighting::CellIntegral => {
-            let mut l = vec![[0.0f64; 3]; directions.len()];
-            for y in 0..h {
-                let omega = pixel_solid_angle(y, w, h) as f64;
-                for x in 0..w {
-                    let k = nearest(directions, pixel_direction(x, y, w, h));
-                    let p = env.get(x, y);
-                    for c in 0..3 {
-                        l[k][c] += p[c] as f64 * omega;
-                    }
-                }
-            }
-            Ok(l.into_iter().map(|v| v.map(|x| (x / irradiance as f64) as f32)).collect())
+            Ok(integrate(env, directions.len(), irradiance, |d| [(nearest(directions, d), 1.0), (0, 0.0), (0, 0.0)]))
         }
         Weighting::Barycentric => {
             if directions.len() < 3 {
                 return light_weights(directions, irradiance, env, Weighting::CellIntegral);
             }
-            let mut l = vec![[0.0f64; 3]; directions.len()];
-            for y in 0..h {
-                let omega = pixel_solid_angle(y, w, h) as f64;
-                for x in 0..w {
-                    let p = env.get(x, y);
-                    for (k, wk) in barycentric(directions, pixel_direction(x, y, w, h)) {
-                        for c in 0..3 {
-                            l[k][c] += p[c] as f64 * omega * wk as f64;
-                        }
-                    }
-                }
-            }
-            Ok(l.into_iter().map(|v| v.map(|x| (x / irradiance as f64) as f32)).collect())
+            Ok(integrate(env, directions.len(), irradiance, |d| barycentric(directions, d)))
         }
         Weighting::PointSample => {
             let cells = voronoi_solid_angles(directions)?;
@@ -173,6 +149,25 @@ pub fn light_weights(
                 .collect())
         }
     }
+}
+
+/// `∫ L dω` of the map shared among `lights` lights — each pixel's direction gives up to three
+/// `(light, share)` pairs — divided by the lights' irradiance.
+fn integrate(env: &Image, lights: usize, irradiance: f32, share: impl Fn(Vec3) -> [(usize, f32); 3]) -> Vec<[f32; 3]> {
+    let (w, h) = env.dimensions();
+    let mut l = vec![[0.0f64; 3]; lights];
+    for y in 0..h {
+        let omega = pixel_solid_angle(y, w, h) as f64;
+        for x in 0..w {
+            let p = env.get(x, y);
+            for (k, wk) in share(pixel_direction(x, y, w, h)) {
+                for c in 0..3 {
+                    l[k][c] += p[c] as f64 * omega * wk as f64;
+                }
+            }
+        }
+    }
+    l.into_iter().map(|v| v.map(|x| (x / irradiance as f64) as f32)).collect()
 }
 
 /// `p = T·l`: the view relit by light weights `l` (one per OLAT image, per channel).
