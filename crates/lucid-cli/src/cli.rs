@@ -321,6 +321,10 @@ pub enum TrainModel {
     Splat(TrainModelArgs),
     /// Inverse tone mapping network (LDR to HDR) on `brackets` datasets.
     Itm(TrainItmArgs),
+    /// Neural relighting on an `olat` dataset: 3DGS geometry, then per-Gaussian features
+    /// decoded with the light direction; renders novel views under novel lights and
+    /// environment maps.
+    Relight(TrainModelArgs),
 }
 
 /// `lucid train itm`.

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use lucid_image::{Image, read_image};
-use lucid_scene::{Dataset, Split};
+use lucid_scene::{Dataset, Frame, Split};
 use rayon::prelude::*;
 
 use crate::RelightError;
@@ -66,16 +66,10 @@ fn barycentric(directions: &[Vec3], d: Vec3) -> [(usize, f32); 3] {
 /// camera pose, and the light irradiance from `dataset.toml` (π, the generator's, if absent).
 pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, RelightError> {
     let dataset = Dataset::open(root)?;
-    let mut views: Vec<(String, Vec<&lucid_scene::Frame>)> = Vec::new();
-    for f in dataset.frames(split) {
-        let key = format!("{:?}", f.camera.camera_to_world);
-        match views.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, list)) => list.push(f),
-            None => views.push((key, vec![f])),
-        }
-    }
-    let views: Vec<_> =
-        views.into_iter().filter(|(_, fs)| fs.iter().any(|f| f.extras.light_direction.is_some())).collect();
+    let views: Vec<Vec<&Frame>> = group_by_pose(dataset.frames(split))
+        .into_iter()
+        .filter(|fs| fs.iter().any(|f| f.extras.light_direction.is_some()))
+        .collect();
     if views.is_empty() {
         return Err(RelightError::Invalid(format!(
             "{}: no frame of the {} split has a light_direction (make an OLAT set with `lucid gen SCENE --rig olat`)",
@@ -83,7 +77,7 @@ pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, Rel
             split.name()
         )));
     }
-    let Some((_, frames)) = views.get(view) else {
+    let Some(frames) = views.get(view) else {
         return Err(RelightError::Invalid(format!(
             "{}: view {view} is out of range: the {} split has {} OLAT views",
             root.display(),
@@ -115,12 +109,30 @@ pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, Rel
             size.1
         )));
     }
-    let irradiance = std::fs::read_to_string(root.join("dataset.toml"))
+    Ok(OlatView { directions, images, irradiance: light_irradiance(root), truths })
+}
+
+/// The irradiance of each OLAT light, from the dataset's `dataset.toml` (π, the generator's
+/// default, if absent).
+pub fn light_irradiance(root: &Path) -> f32 {
+    std::fs::read_to_string(root.join("dataset.toml"))
         .ok()
         .and_then(|t| t.parse::<toml::Table>().ok())
         .and_then(|t| t.get("light_irradiance").and_then(|v| v.as_float()))
-        .unwrap_or(std::f64::consts::PI) as f32;
-    Ok(OlatView { directions, images, irradiance, truths })
+        .unwrap_or(std::f64::consts::PI) as f32
+}
+
+/// The frames grouped by camera (pose and intrinsics), in order of first appearance: the
+/// frames of one view under each of its lights and environments.
+pub fn group_by_pose(frames: &[Frame]) -> Vec<Vec<&Frame>> {
+    let mut views: Vec<Vec<&Frame>> = Vec::new();
+    for f in frames {
+        match views.iter_mut().find(|list| list[0].camera == f.camera) {
+            Some(list) => list.push(f),
+            None => views.push(vec![f]),
+        }
+    }
+    views
 }
 
 /// The light vector `l` (per light, per channel) for an environment map.

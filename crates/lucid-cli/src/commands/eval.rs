@@ -21,8 +21,10 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         "test" => Split::Test,
         other => bail!("--split must be train, val or test, got {other}"),
     };
-    if lucid_burn::checkpoint::read_kind(&args.checkpoint)? == lucid_itm::checkpoint::ITM_KIND {
-        return super::eval_itm::run(&args, split);
+    match lucid_burn::checkpoint::read_kind(&args.checkpoint)?.as_str() {
+        lucid_itm::checkpoint::ITM_KIND => return super::eval_itm::run(&args, split),
+        lucid_relight_head::checkpoint::RELIGHT_KIND => return super::eval_relight::run(&args, split),
+        _ => {}
     }
     let loaded = LoadedModel::load(&args.checkpoint)?;
     let dataset =

@@ -9,6 +9,7 @@ pub mod demo;
 mod envmap;
 mod eval;
 mod eval_itm;
+mod eval_relight;
 pub mod generate;
 mod hdr;
 mod info;
@@ -22,6 +23,7 @@ mod rig_file;
 mod tonemap;
 mod train;
 mod train_itm;
+mod train_relight;
 mod train_splat;
 
 use anyhow::{Context, bail};

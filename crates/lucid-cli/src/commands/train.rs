@@ -19,6 +19,7 @@ pub fn run(args: TrainArgs) -> anyhow::Result<()> {
         TrainModel::Nerf(args) => nerf(args),
         TrainModel::Splat(args) => super::train_splat::run(args),
         TrainModel::Itm(args) => super::train_itm::run(args),
+        TrainModel::Relight(args) => super::train_relight::run(args),
     }
 }
 

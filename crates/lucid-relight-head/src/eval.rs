@@ -1,0 +1,172 @@
+//! Evaluation on held-out views: every OLAT frame of a view (a novel view under each light)
+//! and every environment truth (a novel view under a novel environment), against the path
+//! tracer's images, by PSNR and SSIM on sRGB values over black (as `lucid relight` scores).
+
+use std::path::PathBuf;
+
+use burn::tensor::Device;
+use glam::Vec3;
+use lucid_image::Image;
+use lucid_image::metrics::{MetricSpace, prepare_for_metrics, psnr, ssim};
+use lucid_relight::RelightError;
+use lucid_relight::transport::{Weighting, light_weights};
+use lucid_relight::voronoi::fibonacci_directions;
+use serde::Serialize;
+
+use crate::config::RelightConfig;
+use crate::data::OlatSet;
+use crate::head::RelightHead;
+use crate::render::{Geometry, integrated_radiance, to_image};
+
+/// Scores of one rendered frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameScore {
+    /// The view's index in the split.
+    pub view: usize,
+    /// The truth's file.
+    pub truth: PathBuf,
+    /// The environment map, for environment frames.
+    pub environment: Option<PathBuf>,
+    /// PSNR, dB.
+    pub psnr: f64,
+    /// SSIM.
+    pub ssim: f64,
+}
+
+/// Means over a set of frames.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct MeanScore {
+    /// Frames.
+    pub frames: usize,
+    /// Mean PSNR, dB.
+    pub psnr: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+}
+
+/// The evaluation of a split.
+#[derive(Clone, Debug, Serialize)]
+pub struct RelightReport {
+    /// Novel views under single lights.
+    pub lights: MeanScore,
+    /// Novel views under environment maps.
+    pub environments: MeanScore,
+    /// Every frame.
+    pub frames: Vec<FrameScore>,
+    /// Directions the environments were integrated over.
+    pub environment_directions: usize,
+    /// Seconds per environment render.
+    pub seconds_per_environment: f64,
+}
+
+fn mean(scores: &[&FrameScore]) -> MeanScore {
+    let n = scores.len().max(1) as f64;
+    MeanScore {
+        frames: scores.len(),
+        psnr: scores.iter().map(|s| s.psnr).sum::<f64>() / n,
+        ssim: scores.iter().map(|s| s.ssim).sum::<f64>() / n,
+    }
+}
+
+/// `(PSNR, SSIM)` of a render against the truth, both straight alpha, on sRGB over black.
+pub fn score(render: &Image, truth: &Image) -> Result<(f64, f64), RelightError> {
+    let prep = |i: &Image| prepare_for_metrics(i, [0.0; 3], MetricSpace::Srgb);
+    let (a, b) = (prep(render), prep(truth));
+    let metric = |e: lucid_image::metrics::MetricError| RelightError::Invalid(e.to_string());
+    Ok((psnr(&a, &b, None).map_err(metric)?, ssim(&a, &b, None).map_err(metric)?))
+}
+
+/// A trained model ready to render.
+pub struct RelightModel<'a> {
+    /// The configuration.
+    pub config: &'a RelightConfig,
+    /// The frozen geometry.
+    pub geometry: &'a Geometry,
+    /// The head.
+    pub head: &'a RelightHead,
+    /// The training lights' directions (the environment integration's set when
+    /// `environment.directions` is 0).
+    pub training_directions: &'a [Vec3],
+    /// Irradiance of one OLAT light of the training set.
+    pub irradiance: f32,
+    /// The device the tensors are on.
+    pub device: &'a Device,
+}
+
+impl RelightModel<'_> {
+    /// The directions environments are integrated over.
+    pub fn environment_directions(&self) -> Vec<Vec3> {
+        match self.config.environment.directions {
+            0 => self.training_directions.to_vec(),
+            n => fibonacci_directions(n),
+        }
+    }
+
+    /// The view from `camera` under one light from `direction` (of the training lights'
+    /// irradiance).
+    pub fn render_light(&self, camera: &lucid_scene::PinholeCamera, direction: Vec3) -> Image {
+        let dirs = self.geometry.view_directions(camera);
+        let colours = self.head.radiance(self.config, &dirs, direction.normalize(), self.device);
+        to_image(self.geometry.render(colours, camera))
+    }
+
+    /// The view from `camera` under an environment map (lat-long, linear).
+    pub fn render_environment(
+        &self,
+        camera: &lucid_scene::PinholeCamera,
+        env: &Image,
+        directions: &[Vec3],
+    ) -> Result<Image, RelightError> {
+        let weights = light_weights(directions, self.irradiance, env, Weighting::Barycentric)?;
+        let colours =
+            integrated_radiance(self.head, self.config, self.geometry, camera, directions, &weights, self.device);
+        Ok(to_image(self.geometry.render(colours, camera)))
+    }
+
+    /// Renders and scores every frame of `data`'s views; `keep` receives each render with
+    /// its score.
+    pub fn evaluate(
+        &self,
+        data: &OlatSet,
+        mut keep: impl FnMut(&FrameScore, &Image) -> Result<(), RelightError>,
+    ) -> Result<RelightReport, RelightError> {
+        let directions = self.environment_directions();
+        let mut frames = Vec::new();
+        let mut env_seconds = 0.0;
+        for (v, view) in data.views.iter().enumerate() {
+            for lit in &view.lights {
+                let render = self.render_light(&view.camera, lit.direction);
+                let truth = lucid_image::read_image(&lit.path)?;
+                let (psnr, ssim) = score(&render, &truth)?;
+                let s = FrameScore { view: v, truth: lit.path.clone(), environment: None, psnr, ssim };
+                keep(&s, &render)?;
+                frames.push(s);
+            }
+            for truth in &view.environments {
+                let env = lucid_image::read_image(&truth.environment)?;
+                let start = std::time::Instant::now();
+                let render = self.render_environment(&view.camera, &env, &directions)?;
+                env_seconds += start.elapsed().as_secs_f64();
+                let (psnr, ssim) = score(&render, &truth.image)?;
+                let s = FrameScore {
+                    view: v,
+                    truth: truth.path.clone(),
+                    environment: Some(truth.environment.clone()),
+                    psnr,
+                    ssim,
+                };
+                keep(&s, &render)?;
+                frames.push(s);
+            }
+        }
+        let lights: Vec<&FrameScore> = frames.iter().filter(|s| s.environment.is_none()).collect();
+        let envs: Vec<&FrameScore> = frames.iter().filter(|s| s.environment.is_some()).collect();
+        Ok(RelightReport {
+            lights: mean(&lights),
+            environments: mean(&envs),
+            seconds_per_environment: env_seconds / envs.len().max(1) as f64,
+            environment_directions: directions.len(),
+            frames,
+        })
+    }
+}

@@ -1,0 +1,129 @@
+//! Training in two stages.
+//!
+//! 1. Geometry: 3DGS ([`lucid_splat::trainer::SplatTrainer`], unchanged) on each view under
+//!    uniform white light, made from its OLAT frames ([`OlatSet::uniformly_lit`]). Shadows
+//!    and highlights move with the light, so no single OLAT frame is a consistent target;
+//!    their sum is.
+//! 2. Head: the geometry frozen, the per-Gaussian features and the decoder learn the OLAT
+//!    frames themselves, one view under `lights_per_step` lights per step, with an L1 loss on
+//!    gamma-encoded linear radiance (`(x + ε)^(1/2.2)`): close to the sRGB space that PSNR is
+//!    measured in, with a gradient everywhere (HDR highlights above 1 included).
+
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Device, Tensor, TensorData};
+use lucid_scene::sampling::{Rng, mix};
+use lucid_splat::cloud::SplatCloud;
+use lucid_splat::project::RenderSettings;
+
+use crate::config::RelightConfig;
+use crate::data::OlatSet;
+use crate::head::RelightHead;
+use crate::render::Geometry;
+
+/// Offset inside the loss's gamma: keeps its slope finite at black.
+pub const GAMMA_EPSILON: f32 = 0.01;
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HeadStepStats {
+    /// The loss.
+    pub loss: f32,
+    /// PSNR of the step's renders in the loss's gamma space.
+    pub psnr: f32,
+}
+
+/// The head in training over a frozen geometry.
+pub struct RelightTrainer {
+    /// The configuration.
+    pub config: RelightConfig,
+    /// The geometry stage's result.
+    pub geometry: Geometry,
+    /// The head (on the autodiff device).
+    pub head: RelightHead,
+    /// Adam.
+    pub optimizer: ModuleOptimizer,
+    /// Head steps taken.
+    pub step: usize,
+    /// Fraction of a wall-clock budget used so far (set by time-limited loops).
+    pub budget_progress: f64,
+    device: Device,
+}
+
+fn scalar(t: Tensor<1>) -> f32 {
+    t.into_data().try_to_vec::<f32>().map(|v| v[0]).unwrap_or(f32::NAN)
+}
+
+/// `(x + ε)^(1/2.2)`.
+fn gamma(x: Tensor<3>) -> Tensor<3> {
+    (x + GAMMA_EPSILON).powf_scalar(1.0 / 2.2)
+}
+
+impl RelightTrainer {
+    /// A fresh head on `cloud`, rendered with `settings`.
+    pub fn new(config: RelightConfig, cloud: SplatCloud, settings: RenderSettings, device: Device) -> Self {
+        // burn draws the initial weights from the device's generator.
+        device.seed(config.train.seed);
+        let head = RelightHead::new(&config, cloud.len(), &device);
+        let geometry = Geometry::new(cloud, settings, &device);
+        Self::from_parts(config, geometry, head, AdamConfig::new().init(), 0, device)
+    }
+
+    /// From saved parts.
+    pub fn from_parts(
+        config: RelightConfig,
+        geometry: Geometry,
+        head: RelightHead,
+        optimizer: ModuleOptimizer,
+        step: usize,
+        device: Device,
+    ) -> Self {
+        Self { config, geometry, head, optimizer, step, budget_progress: 0.0, device }
+    }
+
+    /// Progress through the run, from the step count or the time budget, whichever is ahead.
+    pub fn progress(&self) -> f64 {
+        (self.step as f64 / self.config.train.steps as f64).max(self.budget_progress).min(1.0)
+    }
+
+    /// The decoder's learning rate now: exponential decay by 10× over the run.
+    pub fn learning_rate(&self) -> f64 {
+        self.config.train.learning_rate * 0.1f64.powf(self.progress())
+    }
+
+    /// One optimiser step: a view drawn at random and `lights_per_step` of its lights, from a
+    /// generator seeded by the seed and the step (a resumed run draws what an uninterrupted
+    /// one would have).
+    pub fn train_step(&mut self, data: &OlatSet) -> HeadStepStats {
+        let t = self.config.train;
+        let mut rng = Rng::new(t.seed, mix(0x4e11 ^ self.step as u64));
+        let view = &data.views[rng.below(data.views.len())];
+        let (w, h) = (view.camera.intrinsics.width as usize, view.camera.intrinsics.height as usize);
+        let dirs = self.geometry.view_directions(&view.camera);
+        let encode = |d: &[glam::Vec3], degree| crate::head::encoding_tensor(d, degree, &self.device);
+        let free = self.head.light_free(encode(&dirs, self.config.head.view_degree), self.config.feature_scale());
+        let mut loss = Tensor::<1>::zeros([1], &self.device);
+        let mut squared = 0.0f64;
+        for _ in 0..t.lights_per_step {
+            let lit = &view.lights[rng.below(view.lights.len())];
+            let colours = self.head.decode(free.clone(), encode(&[lit.direction], self.config.head.light_degree));
+            let image = self.geometry.render(colours, &view.camera).slice([0..h, 0..w, 0..3]);
+            let target = Tensor::<3>::from_data(TensorData::new(lit.rgb.clone(), [h, w, 3]), &self.device);
+            let diff = gamma(image) - gamma(target);
+            squared += scalar(diff.clone().square().mean()) as f64;
+            loss = loss + diff.abs().mean();
+        }
+        let loss = loss / t.lights_per_step as f32;
+        let value = scalar(loss.clone());
+        let grads = GradientsParams::from_grads(loss.backward(), &self.head);
+        let lr = self.learning_rate();
+        self.head = self.optimizer.step(lr, self.head.clone(), grads);
+        self.step += 1;
+        let mse = squared / t.lights_per_step as f64;
+        HeadStepStats { loss: value, psnr: (-10.0 * mse.max(1e-12).log10()) as f32 }
+    }
+
+    /// The device the head trains on.
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+}
