@@ -31,6 +31,20 @@ fn demo_generates_a_dataset_that_info_reads() {
     // Measured 26.84 dB after 300 steps against 22.37 dB for the nearest training view.
     assert!(splat["psnr"].as_f64().unwrap() > nearest, "{splat} vs nearest {nearest}");
 
+    // The report: both models' numbers, a curve plot, and every image it shows on disk.
+    let html = std::fs::read_to_string(dir.path().join("demo/report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
+    for needle in ["NeRF", "3DGS", "<svg", "Held-out PSNR", "nearest training view", "Machine"] {
+        assert!(html.contains(needle), "report lacks {needle}");
+    }
+    assert!(html.contains(&format!("{:.2}", splat["psnr"].as_f64().unwrap())), "the table shows the splat PSNR");
+    let images: Vec<&str> = html.split("<img src=\"").skip(1).map(|s| s.split('"').next().unwrap()).collect();
+    // Per model: 3 test views × (truth, prediction, error), 6 orbit frames, 1 refocused view.
+    assert_eq!(images.len(), 2 * (9 + 7), "{images:?}");
+    for src in images {
+        assert!(dir.path().join("demo").join(src).is_file(), "{src} missing");
+    }
+
     let info = lucid_in(dir.path(), &["info", "demo/dataset", "--json"]).success().json();
     let splits = info["splits"].as_array().unwrap();
     let counts: Vec<u64> = splits.iter().map(|s| s["frames"].as_u64().unwrap()).collect();

@@ -565,6 +565,9 @@ pub enum BenchTarget {
     /// The HDR toolkit at 1 megapixel: response recovery and merge of 5 brackets, Mertens
     /// fusion, every tone-mapping operator.
     Hdr,
+    /// Every benchmark above in turn, with one JSON file and one HTML report (in `--report`,
+    /// default `out/bench`).
+    All,
 }
 
 /// `lucid bench`.
@@ -579,6 +582,10 @@ pub struct BenchArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write `results.json` and an HTML report with plots (`report.html`) into this folder
+    /// (`all` does so in `out/bench` by default).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
     /// nerf, splat: the dataset folder (rendered there first if missing or incomplete).
     #[arg(long, default_value = "out/bench/object")]
     pub dataset: PathBuf,

@@ -14,7 +14,38 @@ const CORNELL: &str = include_str!("../../../../configs/scenes/cornell.toml");
 const CORNELL_REFERENCE_MEAN: f64 = 0.1470;
 
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
-    let result = match args.target {
+    let targets = match args.target {
+        BenchTarget::All => vec![BenchTarget::Trace, BenchTarget::Nerf, BenchTarget::Splat, BenchTarget::Hdr],
+        t => vec![t],
+    };
+    let mut results = Vec::new();
+    for target in targets {
+        results.push(run_one(&args, target)?);
+    }
+    let result = match &results[..] {
+        [one] => one.clone(),
+        all => serde_json::Value::Array(all.to_vec()),
+    };
+    if let Some(path) = &args.json {
+        super::write_text(path, &serde_json::to_string_pretty(&result)?)?;
+        println!("results written to {}", path.display());
+    }
+    let report_dir = match (&args.report, args.target) {
+        (Some(dir), _) => Some(dir.clone()),
+        (None, BenchTarget::All) => Some(std::path::PathBuf::from("out/bench")),
+        _ => None,
+    };
+    if let Some(dir) = report_dir {
+        std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+        super::write_text(&dir.join("results.json"), &serde_json::to_string_pretty(&result)?)?;
+        let html = super::bench_report::write_report(&results, args.quick, &dir)?;
+        println!("report written to {}", html.display());
+    }
+    Ok(())
+}
+
+fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
+    Ok(match target {
         BenchTarget::Trace => bench_trace(args.quick)?,
         BenchTarget::Nerf => super::bench_nerf::run(super::bench_nerf::NerfBench {
             dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
@@ -29,12 +60,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             curve_views: args.curve_views,
         })?,
         BenchTarget::Hdr => super::bench_hdr::run(args.quick)?,
-    };
-    if let Some(path) = &args.json {
-        super::write_text(path, &serde_json::to_string_pretty(&result)?)?;
-        println!("results written to {}", path.display());
-    }
-    Ok(())
+        BenchTarget::All => unreachable!("expanded by run"),
+    })
 }
 
 fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {

@@ -2,8 +2,8 @@
 //! `object` scene, reads it back, and scores on the held-out test views: the 8-bit images
 //! against the HDR truth, a nearest-training-view baseline (the floor every trained model
 //! must beat), a NeRF and a 3D Gaussian splat cloud trained on the training views. Writes
-//! `<out>/dataset/`, `<out>/nerf/`, `<out>/splat/` (checkpoints, test renders, `splats.ply`)
-//! and `<out>/metrics.json`.
+//! `<out>/dataset/`, `<out>/nerf/`, `<out>/splat/` (checkpoints, test renders, `splats.ply`),
+//! `<out>/metrics.json` and `<out>/report.html` (with its images in `<out>/images/`).
 
 use anyhow::{Context, bail};
 use glam::{Vec3, Vec4Swizzles};
@@ -14,7 +14,12 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
+use super::demo_report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
 use super::metrics::compare_files;
+use lucid_scene::dataset::images::ImageSet;
+
+/// Points on each held-out PSNR curve.
+const CURVE_POINTS: usize = 8;
 use crate::cli::DemoArgs;
 
 /// Evaluation background of the demo (the Blender set's convention).
@@ -43,6 +48,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     generate_dataset(&root, &spec, &renderer, Shard::ALL, &|done, _| bar.set_position(done as u64))
         .context("generating the demo dataset")?;
     bar.finish_and_clear();
+    let generation_seconds = started.elapsed().as_secs_f64();
 
     let dataset = Dataset::open(&root)?;
     let summary = super::info::summarise(&dataset);
@@ -76,9 +82,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let q = MetricSummary::from_images(&quantisation);
     let n = MetricSummary::from_images(&nearest);
     // 3. A NeRF trained on the training views, scored on the same test views.
-    let nerf = if args.nerf_steps > 0 { Some(train_nerf(&dataset, &args)?) } else { None };
+    let test_set = lucid_scene::dataset::images::ImageSet::load(dataset.frames(Split::Test))?;
+    let nerf = if args.nerf_steps > 0 { Some(train_nerf(&dataset, &test_set, &args)?) } else { None };
     // 4. A 3DGS cloud, likewise.
-    let splat = if args.splat_steps > 0 { Some(train_splat(&dataset, &args)?) } else { None };
+    let splat = if args.splat_steps > 0 { Some(train_splat(&dataset, &test_set, &args)?) } else { None };
     let elapsed = started.elapsed().as_secs_f64();
 
     println!(
@@ -124,20 +131,26 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let path = args.out.join("metrics.json");
     super::write_text(&path, &serde_json::to_string_pretty(&report)?)?;
     println!("metrics written to {}", path.display());
+    let facts = DemoFacts {
+        size: args.size,
+        spp: args.spp,
+        views: args.views,
+        seed: args.seed,
+        generation_seconds,
+        total_seconds: elapsed,
+        quantisation: (q.psnr, q.ssim),
+        nearest: (n.psnr, n.ssim),
+        dataset: &root,
+    };
+    let runs: Vec<ModelRun> = nerf.into_iter().chain(splat).collect();
+    let html = write_report(&facts, &runs, &args.out)?;
+    println!("report written to {}", html.display());
     Ok(())
-}
-
-/// What a demo training run produced.
-struct TrainResult {
-    steps: usize,
-    seconds: f64,
-    summary: lucid_scene::evaluation::EvalSummary,
-    checkpoint: std::path::PathBuf,
 }
 
 /// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and
 /// scores it on the test views (renders written beside the checkpoint).
-fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult> {
+fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
     use lucid_nerf::data::ImageSet;
     let frames = dataset.frames(Split::Train);
     let mut config = lucid_nerf::config::NerfConfig::default();
@@ -148,26 +161,34 @@ fn train_nerf(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult>
         lucid_nerf::trainer::Trainer::for_dataset(config, dataset, &train, lucid_nerf::backend::training_device());
     tracing::info!("training a NeRF for {} steps", args.nerf_steps);
     let bar = crate::progress::bar(args.nerf_steps as u64, "nerf");
-    let started = std::time::Instant::now();
+    let (mut seconds, mut curve) = (0.0, Vec::new());
+    let every = (args.nerf_steps / CURVE_POINTS).max(1);
     while trainer.step < args.nerf_steps {
+        let started = std::time::Instant::now();
         trainer.step(&train);
+        seconds += started.elapsed().as_secs_f64();
         bar.inc(1);
+        if trainer.step.is_multiple_of(every) || trainer.step == args.nerf_steps {
+            let model = trainer.eval_model();
+            curve.push((seconds, held_out_psnr(&trainer.renderer(&model), test)));
+        }
     }
-    let seconds = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let dir = args.out.join("nerf");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let checkpoint = dir.join("checkpoint.lucid");
     lucid_nerf::checkpoint::save(&checkpoint, &trainer, seconds)?;
     let model = trainer.eval_model();
-    let summary = score_and_write(dataset, &trainer.renderer(&model), &dir)?;
-    Ok(TrainResult { steps: trainer.step, seconds, summary, checkpoint })
+    let renderer = trainer.renderer(&model);
+    let (summary, views) = score_and_show(&renderer, test, &dir, &args.out, "NeRF")?;
+    let novel = novel_views(&renderer, test, &args.out, "NeRF")?;
+    Ok(ModelRun { name: "NeRF", steps: trainer.step, seconds, summary, checkpoint, curve, views, novel })
 }
 
 /// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
 /// them), saves it under `<out>/splat/` with `splats.ply`, and scores it on the test views.
-fn train_splat(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult> {
-    use lucid_scene::dataset::images::{ImageSet, scene_box};
+fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
+    use lucid_scene::dataset::images::scene_box;
     use lucid_splat::trainer::{SplatTrainer, initial_cloud};
     let mut config = lucid_splat::config::SplatConfig::default();
     let steps = args.splat_steps;
@@ -188,12 +209,19 @@ fn train_splat(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult
         SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
     tracing::info!("training 3D Gaussian splats for {steps} steps");
     let bar = crate::progress::bar(steps as u64, "splat");
-    let started = std::time::Instant::now();
+    let (mut seconds, mut curve) = (0.0, Vec::new());
+    let every = (steps / CURVE_POINTS).max(1);
     while trainer.step < steps {
+        let started = std::time::Instant::now();
         trainer.step(&train);
+        seconds += started.elapsed().as_secs_f64();
         bar.inc(1);
+        if trainer.step.is_multiple_of(every) || trainer.step == steps {
+            let cloud = trainer.model.to_cloud();
+            let renderer = lucid_splat::view::SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
+            curve.push((seconds, held_out_psnr(&renderer, test)));
+        }
     }
-    let seconds = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let dir = args.out.join("splat");
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -202,27 +230,9 @@ fn train_splat(dataset: &Dataset, args: &DemoArgs) -> anyhow::Result<TrainResult
     let cloud = trainer.model.to_cloud();
     lucid_splat::ply::write_splat_ply(&dir.join("splats.ply"), &cloud)?;
     let renderer = lucid_splat::view::SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
-    let summary = score_and_write(dataset, &renderer, &dir)?;
-    Ok(TrainResult { steps: trainer.step, seconds, summary, checkpoint })
-}
-
-/// Scores `renderer` on the test views, writing each render as `dir/test_NNN.png`.
-fn score_and_write(
-    dataset: &Dataset,
-    renderer: &dyn lucid_scene::evaluation::ViewModel,
-    dir: &std::path::Path,
-) -> anyhow::Result<lucid_scene::evaluation::EvalSummary> {
-    let test = lucid_scene::dataset::images::ImageSet::load(dataset.frames(Split::Test))?;
-    let mut failure = None;
-    let (_, summary) = lucid_scene::evaluation::evaluate(renderer, &test, None, |i, view, _, _| {
-        if let Err(e) = lucid_image::write_image(dir.join(format!("test_{i:03}.png")), &view.linear_colour()) {
-            failure.get_or_insert(e);
-        }
-    });
-    if let Some(e) = failure {
-        return Err(e.into());
-    }
-    Ok(summary)
+    let (summary, views) = score_and_show(&renderer, test, &dir, &args.out, "3DGS")?;
+    let novel = novel_views(&renderer, test, &args.out, "3DGS")?;
+    Ok(ModelRun { name: "3DGS", steps: trainer.step, seconds, summary, checkpoint, curve, views, novel })
 }
 
 /// The default `object` orbit set: cameras on the upper hemisphere at distance 4 with a 40°

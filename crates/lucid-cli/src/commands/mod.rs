@@ -3,9 +3,11 @@
 mod bench;
 mod bench_hdr;
 mod bench_nerf;
+mod bench_report;
 mod bench_splat;
 mod convert;
 pub mod demo;
+mod demo_report;
 mod envmap;
 mod eval;
 mod eval_itm;

@@ -16,6 +16,7 @@ use lucid_relight_head::trainer::RelightTrainer;
 use lucid_scene::dataset::images::{ImageSet, scene_box};
 use lucid_scene::{Dataset, Split};
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
+use lucid_splat::view::SplatRenderer;
 
 use super::train::{Shortcuts, config_text, open_log};
 use crate::cli::TrainModelArgs;
@@ -83,31 +84,53 @@ fn geometry_stage(
     Ok((trainer, elapsed))
 }
 
+/// The geometry against the held-out views under uniform light (their OLAT frames summed),
+/// where the test split has OLAT frames: the ceiling the head works under.
+fn report_geometry(root: &Path, cloud: &lucid_splat::SplatCloud, trainer: &SplatTrainer) -> anyhow::Result<()> {
+    let test = OlatSet::load(root, Split::Test).context("loading the test views")?;
+    if test.views.is_empty() || test.views.iter().any(|v| v.lights.is_empty()) {
+        return Ok(());
+    }
+    let images = test.uniformly_lit()?;
+    let renderer = SplatRenderer { cloud, settings: trainer.eval_settings() };
+    let (_, summary) = lucid_scene::evaluation::evaluate(&renderer, &images, None, |_, _, _, _| {});
+    println!(
+        "geometry on {} held-out views under uniform light: PSNR {:.2} dB, SSIM {:.4}",
+        summary.views, summary.psnr, summary.ssim
+    );
+    Ok(())
+}
+
 pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
+    let ckpt = args.output.join("checkpoint.lucid");
+    // A bad configuration fails before any data is read.
+    let config = if args.resume && ckpt.is_file() { None } else { Some(relight_config(&args)?) };
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     let data = OlatSet::load(&args.dataset, Split::Train).context("loading the OLAT training frames")?;
     data.require_lights(&args.dataset, Split::Train)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let ckpt = args.output.join("checkpoint.lucid");
     let device = lucid_burn::backend::training_device();
-    let (mut trainer, lights, mut elapsed) = if args.resume && ckpt.is_file() {
-        let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
-        let mut trainer = loaded.trainer;
-        let t = &mut trainer.config.train;
-        Shortcuts::of(&args).apply(&mut t.steps, &mut t.time_limit, None);
-        tracing::info!("resuming {} at head step {}", ckpt.display(), trainer.step);
-        (trainer, loaded.lights, loaded.header.elapsed)
-    } else {
-        if args.resume && !args.output.join("geometry.lucid").is_file() {
-            bail!("{}: nothing to resume (no checkpoint.lucid or geometry.lucid)", args.output.display());
+    let (mut trainer, lights, mut elapsed) = match config {
+        Some(config) => {
+            if args.resume && !args.output.join("geometry.lucid").is_file() {
+                bail!("{}: nothing to resume (no checkpoint.lucid or geometry.lucid)", args.output.display());
+            }
+            let images = data.uniformly_lit()?;
+            let (geometry, seconds) = geometry_stage(&config, &dataset, &images, &args.output, args.resume)?;
+            let cloud = geometry.model.to_cloud();
+            report_geometry(&args.dataset, &cloud, &geometry)?;
+            let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
+            (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, seconds)
         }
-        let config = relight_config(&args)?;
-        let images = data.uniformly_lit()?;
-        let (geometry, seconds) = geometry_stage(&config, &dataset, &images, &args.output, args.resume)?;
-        let cloud = geometry.model.to_cloud();
-        let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
-        (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, seconds)
+        None => {
+            let loaded = checkpoint::load(&ckpt, &device).context("resuming")?;
+            let mut trainer = loaded.trainer;
+            let t = &mut trainer.config.train;
+            Shortcuts::of(&args).apply(&mut t.steps, &mut t.time_limit, None);
+            tracing::info!("resuming {} at head step {}", ckpt.display(), trainer.step);
+            (trainer, loaded.lights, loaded.header.elapsed)
+        }
     };
     super::write_text(&args.output.join("config.toml"), &toml::to_string(&trainer.config)?)?;
     tracing::info!(

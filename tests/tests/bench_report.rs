@@ -1,0 +1,28 @@
+//! `lucid bench all --quick`: every benchmark in turn, one JSON and one HTML report with the
+//! trainers' PSNR curves and every measured number.
+
+use lucid_tests::{lucid_in, temp_dir};
+
+#[test]
+fn bench_all_quick_writes_results_and_a_report() {
+    let dir = temp_dir();
+    let d = dir.path();
+    lucid_in(d, &["bench", "all", "--quick", "--report", "report", "--dataset", "data/object"]).success();
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("report/results.json")).unwrap()).unwrap();
+    let names: Vec<&str> = results.as_array().unwrap().iter().map(|r| r["benchmark"].as_str().unwrap()).collect();
+    assert_eq!(names, ["trace", "nerf", "splat", "hdr"]);
+    let html = std::fs::read_to_string(d.join("report/report.html")).unwrap();
+    assert_eq!(html.matches("<svg").count(), 1, "one plot of both trainers' curves");
+    for r in results.as_array().unwrap() {
+        let name = r["benchmark"].as_str().unwrap();
+        assert!(html.contains(&format!("<h2>{name}</h2>")), "{name} section");
+    }
+    // The table shows the numbers of the JSON.
+    let splat = &results[2];
+    let psnr = splat["final"]["psnr"].as_f64().unwrap();
+    assert!(psnr > 15.0, "{psnr}");
+    assert!(html.contains(&format!("final held-out PSNR {psnr:.2} dB")));
+    let rays = results[0]["rays"].as_u64().unwrap();
+    assert!(html.contains(&format!("<td>{rays}</td>")), "trace rays {rays}");
+}
