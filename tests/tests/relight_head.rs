@@ -48,10 +48,11 @@ fn relighting_head_renders_held_out_views_under_lights_and_environments() {
     println!("lights {lights}\nenvironments {envs}");
     assert_eq!(lights["frames"].as_u64(), Some(2 * 24));
     assert_eq!(envs["frames"].as_u64(), Some(2 * 2));
-    // Measured 26.2 dB under single lights and 25.5 dB under the environments (32 px,
-    // 16 spp truth); floors 3 dB below. After 800 head steps it was 20.4 and 16.9 dB.
-    assert!(lights["psnr"].as_f64().unwrap() > 23.0, "{lights}");
-    assert!(envs["psnr"].as_f64().unwrap() > 22.5, "{envs}");
+    // Measured 24.7 dB under single lights and 26.3 dB under the environments (32 px,
+    // 16 spp truths); floors 3 dB below. An undertrained head (800 steps of each stage) was
+    // at 20.4 and 16.9 dB.
+    assert!(lights["psnr"].as_f64().unwrap() > 21.5, "{lights}");
+    assert!(envs["psnr"].as_f64().unwrap() > 23.3, "{envs}");
     assert!(d.join("eval/metrics.json").is_file() && d.join("eval/000_r_0_env0.exr").is_file());
 }
 

@@ -678,6 +678,10 @@ pub struct DemoArgs {
     /// 3DGS training steps (the default schedule scaled to them); 0 skips the splats.
     #[arg(long, default_value_t = 1500)]
     pub splat_steps: usize,
+    /// The benchmark's sizes instead: 200×200 pixels, 100/0/200 views, 32 spp, 4000 NeRF and
+    /// 7000 3DGS steps (replaces --size, --views, --spp, --nerf-steps and --splat-steps).
+    #[arg(long)]
+    pub full: bool,
 }
 
 /// Parses `TRAIN,VAL,TEST` view counts.

@@ -50,12 +50,28 @@ pub struct TrainConfig {
     pub feature_learning_rate: f64,
     /// Lights per step (each a separate render of the step's view).
     pub lights_per_step: usize,
+    /// The loss (see [`crate::trainer`]).
+    pub loss: LossKind,
     /// Random seed.
     pub seed: u64,
     /// Steps between checkpoints.
     pub checkpoint_every: usize,
     /// Steps between log lines.
     pub log_every: usize,
+}
+
+/// The head's loss on linear radiance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LossKind {
+    /// `(p − t)² / (sg(p) + ε)²`: seeks the mean of noisy targets.
+    RelativeL2,
+    /// `(p − t)²·(sg(p) + ε)^(2/2.2 − 2)`: the squared error in gamma space (close to the
+    /// sRGB space PSNR is measured in) linearised at the prediction, so it seeks the mean too.
+    GammaL2,
+    /// `|(p + ε)^(1/2.2) − (t + ε)^(1/2.2)|`: seeks the median (darker than the truth where
+    /// the targets' noise is skewed).
+    GammaL1,
 }
 
 /// Rendering under environment maps: the map is integrated over a set of light directions.
@@ -98,6 +114,7 @@ impl Default for TrainConfig {
             learning_rate: 3e-3,
             feature_learning_rate: 1e-2,
             lights_per_step: 1,
+            loss: LossKind::GammaL2,
             seed: 0,
             checkpoint_every: 1000,
             log_every: 100,

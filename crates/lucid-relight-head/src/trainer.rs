@@ -5,9 +5,18 @@
 //!    and highlights move with the light, so no single OLAT frame is a consistent target;
 //!    their sum is.
 //! 2. Head: the geometry frozen, the per-Gaussian features and the decoder learn the OLAT
-//!    frames themselves, one view under `lights_per_step` lights per step, with an L1 loss on
-//!    gamma-encoded linear radiance (`(x + ε)^(1/2.2)`): close to the sRGB space that PSNR is
-//!    measured in, with a gradient everywhere (HDR highlights above 1 included).
+//!    frames themselves, one view under `lights_per_step` lights per step. The targets are
+//!    Monte Carlo renders whose noise is strongly skewed where light arrives indirectly (a
+//!    few bright paths), so the loss must seek the mean, not the median: an L1 loss on gamma
+//!    values learned dim frames up to 75 % too dark, which environment integration summed
+//!    into a uniform 15–20 % deficit. The default is the squared error in gamma space
+//!    linearised at the prediction, `(p − t)²·g'(sg(p))²`: mean-seeking like the relative L2
+//!    of Noise2Noise (Lehtinen et al. 2018), `(p − t)²/(sg(p) + ε)²`, but weighted like the
+//!    sRGB-space error PSNR measures, where the relative L2 over-weights dark pixels (its
+//!    renders came out 5–18 % too bright). Measured on a 40-view, 64-light, 64 px studio set
+//!    (6000 steps, 6 held-out views): held-out environments 26.4 / 27.7 / 28.6 dB and single
+//!    lights 28.3 / 26.2 / 25.6 dB for gamma L1 / relative L2 / gamma L2 (single OLAT truths
+//!    are noisy themselves, and PSNR against skewed noise favours the median).
 
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
@@ -15,13 +24,14 @@ use lucid_scene::sampling::{Rng, mix};
 use lucid_splat::cloud::SplatCloud;
 use lucid_splat::project::RenderSettings;
 
-use crate::config::RelightConfig;
+use crate::config::{LossKind, RelightConfig};
 use crate::data::OlatSet;
 use crate::head::RelightHead;
 use crate::render::Geometry;
 
-/// Offset inside the loss's gamma: keeps its slope finite at black.
-pub const GAMMA_EPSILON: f32 = 0.01;
+/// Offset inside the loss's gamma and the relative L2's denominator: keeps both finite at
+/// black.
+pub const LOSS_EPSILON: f32 = 0.01;
 
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -55,7 +65,25 @@ fn scalar(t: Tensor<1>) -> f32 {
 
 /// `(x + ε)^(1/2.2)`.
 fn gamma(x: Tensor<3>) -> Tensor<3> {
-    (x + GAMMA_EPSILON).powf_scalar(1.0 / 2.2)
+    (x + LOSS_EPSILON).powf_scalar(1.0 / 2.2)
+}
+
+/// The loss of a render against its target (both linear, premultiplied).
+fn loss(kind: LossKind, render: Tensor<3>, target: Tensor<3>) -> Tensor<1> {
+    match kind {
+        LossKind::RelativeL2 => {
+            let scale = (render.clone().detach() + LOSS_EPSILON).square();
+            ((render - target).square() / scale).mean()
+        }
+        LossKind::GammaL2 => {
+            // g'(p)² for g(x) = (x + ε)^(1/2.2): the squared error in gamma space to first
+            // order, with the weight taken at the prediction so that the minimum is the
+            // targets' mean.
+            let weight = (render.clone().detach() + LOSS_EPSILON).powf_scalar(2.0 / 2.2 - 2.0);
+            ((render - target).square() * weight).mean()
+        }
+        LossKind::GammaL1 => (gamma(render) - gamma(target)).abs().mean(),
+    }
 }
 
 impl RelightTrainer {
@@ -101,20 +129,19 @@ impl RelightTrainer {
         let dirs = self.geometry.view_directions(&view.camera);
         let encode = |d: &[glam::Vec3], degree| crate::head::encoding_tensor(d, degree, &self.device);
         let free = self.head.light_free(encode(&dirs, self.config.head.view_degree), self.config.feature_scale());
-        let mut loss = Tensor::<1>::zeros([1], &self.device);
+        let mut total = Tensor::<1>::zeros([1], &self.device);
         let mut squared = 0.0f64;
         for _ in 0..t.lights_per_step {
             let lit = &view.lights[rng.below(view.lights.len())];
             let colours = self.head.decode(free.clone(), encode(&[lit.direction], self.config.head.light_degree));
             let image = self.geometry.render(colours, &view.camera).slice([0..h, 0..w, 0..3]);
             let target = Tensor::<3>::from_data(TensorData::new(lit.rgb.clone(), [h, w, 3]), &self.device);
-            let diff = gamma(image) - gamma(target);
-            squared += scalar(diff.clone().square().mean()) as f64;
-            loss = loss + diff.abs().mean();
+            squared += scalar((gamma(image.clone().detach()) - gamma(target.clone())).square().mean()) as f64;
+            total = total + loss(t.loss, image, target);
         }
-        let loss = loss / t.lights_per_step as f32;
-        let value = scalar(loss.clone());
-        let grads = GradientsParams::from_grads(loss.backward(), &self.head);
+        let total = total / t.lights_per_step as f32;
+        let value = scalar(total.clone());
+        let grads = GradientsParams::from_grads(total.backward(), &self.head);
         let lr = self.learning_rate();
         self.head = self.optimizer.step(lr, self.head.clone(), grads);
         self.step += 1;

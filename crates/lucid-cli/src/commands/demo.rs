@@ -25,7 +25,10 @@ use crate::cli::DemoArgs;
 /// Evaluation background of the demo (the Blender set's convention).
 const BACKGROUND: [f32; 3] = [1.0, 1.0, 1.0];
 
-pub fn run(args: DemoArgs) -> anyhow::Result<()> {
+pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
+    if args.full {
+        (args.size, args.views, args.spp, args.nerf_steps, args.splat_steps) = (200, [100, 0, 200], 32, 4000, 7000);
+    }
     if args.spp == 0 {
         bail!("--spp must be at least 1");
     }
