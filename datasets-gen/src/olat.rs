@@ -14,6 +14,10 @@ use lucid_trace::light::Light;
 pub struct OlatSpec {
     /// Unit directions towards each light.
     pub directions: Vec<Vec3>,
+    /// Directions of further lights that light only the test views, one at a time: light
+    /// directions a relighting model never saw in training (frames marked
+    /// `"held_out_light": true`).
+    pub held_out: Vec<Vec3>,
     /// Irradiance of each light on a surface facing it (π makes a white Lambertian surface
     /// facing the light render with radiance 1).
     pub irradiance: f32,
@@ -26,6 +30,11 @@ pub struct OlatSpec {
 pub enum Lighting {
     /// OLAT light number `index`.
     Light {
+        /// Which light.
+        index: usize,
+    },
+    /// Held-out light number `index` (test views only).
+    HeldOutLight {
         /// Which light.
         index: usize,
     },
@@ -42,6 +51,9 @@ impl OlatSpec {
         match *lighting {
             Lighting::Light { index } => {
                 vec![Light::Directional { direction: self.directions[index], irradiance: Vec3::splat(self.irradiance) }]
+            }
+            Lighting::HeldOutLight { index } => {
+                vec![Light::Directional { direction: self.held_out[index], irradiance: Vec3::splat(self.irradiance) }]
             }
             Lighting::Environment { index } => {
                 let map = EnvironmentMap::new(&self.environments[index].1, 1.0, glam::Mat3::IDENTITY);
@@ -62,6 +74,13 @@ pub fn sphere_directions(n: usize) -> Vec<Vec3> {
             Vec3::new(r * phi.cos(), r * phi.sin(), z)
         })
         .collect()
+}
+
+/// `n` held-out light directions: a Fibonacci lattice of `n` points turned about two axes, so
+/// that they fall between the lattice of the training lights rather than on it.
+pub fn held_out_directions(n: usize) -> Vec<Vec3> {
+    let turn = glam::Mat3::from_rotation_z(0.7) * glam::Mat3::from_rotation_x(0.45);
+    sphere_directions(n).into_iter().map(|d| (turn * d).normalize()).collect()
 }
 
 /// Two held-out lighting environments (lat-long, +Z up, 128×64): a clear sky with a sun, and

@@ -234,6 +234,16 @@ fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
                 });
             }
             if split == Split::Test {
+                for k in 0..olat.held_out.len() {
+                    frames.push(PlannedFrame {
+                        split: split_index,
+                        index: i,
+                        pose,
+                        lens: None,
+                        lighting: Some(Lighting::HeldOutLight { index: k }),
+                        stem: format!("{stem}_h{k}"),
+                    });
+                }
                 for e in 0..olat.environments.len() {
                     let lighting = Some(Lighting::Environment { index: e });
                     frames.push(PlannedFrame {
@@ -306,6 +316,7 @@ pub fn generate_dataset(
                 let salt = match lighting {
                     Lighting::Light { index } => 1 + *index as u64,
                     Lighting::Environment { index } => 100_000 + *index as u64,
+                    Lighting::HeldOutLight { index } => 200_000 + *index as u64,
                 };
                 renderer
                     .render_lit(&camera, &olat.lights(lighting), view_number ^ (salt << 32))
@@ -375,8 +386,10 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
                 focus_distance: f.lens.map(|l| l.focus_distance),
                 light_direction: match (&f.lighting, &spec.olat) {
                     (Some(Lighting::Light { index }), Some(olat)) => Some(olat.directions[*index]),
+                    (Some(Lighting::HeldOutLight { index }), Some(olat)) => Some(olat.held_out[*index]),
                     _ => None,
                 },
+                held_out_light: matches!(f.lighting, Some(Lighting::HeldOutLight { .. })).then_some(true),
                 environment_file_path: match &f.lighting {
                     Some(Lighting::Environment { index }) => Some(environment_file(*index)),
                     _ => None,
@@ -500,7 +513,12 @@ mod tests {
             scene: loaded.scene,
             settings: lucid_trace::RenderSettings { spp: 512, ..loaded.settings },
         };
-        let olat = OlatSpec { directions: sphere_directions(2), irradiance: 3.0, environments: builtin_environments() };
+        let olat = OlatSpec {
+            directions: sphere_directions(2),
+            held_out: Vec::new(),
+            irradiance: 3.0,
+            environments: builtin_environments(),
+        };
         let spec = DatasetSpec { olat: Some(olat.clone()), ..orbit_spec(24, 24, [1, 0, 1], 4) };
         let dir = tempfile::tempdir().unwrap();
         let out = generate_dataset(dir.path(), &spec, &renderer, Shard::ALL, &|_, _| {}).unwrap();

@@ -187,14 +187,44 @@ fn light_field_refocus_is_closer_to_the_thin_lens_truth_than_the_centre_view() {
 fn olat_rig_writes_one_frame_per_light_and_environment_truths() {
     let dir = temp_dir();
     let args = [
-        "gen", "studio", "--rig", "olat", "-o", "olat", "--views", "2,0,1", "--res", "16", "--spp", "2", "--lights",
+        "gen",
+        "studio",
+        "--rig",
+        "olat",
+        "-o",
+        "olat",
+        "--views",
+        "2,0,1",
+        "--res",
+        "16",
+        "--spp",
+        "2",
+        "--lights",
         "3",
+        "--held-out-lights",
+        "4",
     ];
     lucid_in(dir.path(), &args).success();
     let info = lucid_in(dir.path(), &["info", "olat", "--json"]).success().json();
     assert_eq!(info["splits"][0]["frames"], 6, "2 views x 3 lights");
     assert_eq!(info["splits"][0]["extras"]["light_direction"], 6);
-    assert_eq!(info["splits"][2]["frames"], 5, "1 view x (3 lights + 2 environments)");
+    assert_eq!(info["splits"][2]["frames"], 9, "1 view x (3 lights + 4 held-out lights + 2 environments)");
+    let test: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("olat/transforms_test.json")).unwrap()).unwrap();
+    let frames = test["frames"].as_array().unwrap();
+    let held_out: Vec<&serde_json::Value> = frames.iter().filter(|f| f["held_out_light"] == true).collect();
+    assert_eq!(held_out.len(), 4);
+    // Held-out directions are new: none within 5° of a training light's.
+    let dir_of = |f: &serde_json::Value| -> Vec<f64> {
+        f["light_direction"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect()
+    };
+    for h in &held_out {
+        for f in frames.iter().filter(|f| f["light_direction"].is_array() && f["held_out_light"] != true) {
+            let (a, b) = (dir_of(h), dir_of(f));
+            let cos: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+            assert!(cos < 5f64.to_radians().cos(), "{a:?} vs {b:?}");
+        }
+    }
     assert!(dir.path().join("olat/envmaps/env_0.exr").is_file() && dir.path().join("olat/envmaps/env_1.exr").is_file());
     // Scenes with emissive shapes cannot be relit.
     let args = [

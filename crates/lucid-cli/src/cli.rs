@@ -522,6 +522,10 @@ pub struct GenArgs {
     /// OLAT rig: irradiance of each light (π: a white diffuse surface facing it renders 1).
     #[arg(long, default_value_t = std::f32::consts::PI)]
     pub light_irradiance: f32,
+    /// OLAT rig: further lights, between the training ones, that light only the test views
+    /// (each on its own): held-out light directions for evaluating relighting models.
+    #[arg(long, default_value_t = 8)]
+    pub held_out_lights: usize,
 }
 
 /// `lucid refocus`.

@@ -21,6 +21,8 @@ pub struct LitImage {
     pub direction: Vec3,
     /// Linear radiance premultiplied by coverage, `H×W×3` row-major.
     pub rgb: Vec<f32>,
+    /// The light is not one of the training lights (`held_out_light` in the dataset).
+    pub held_out: bool,
     /// The source file.
     pub path: PathBuf,
 }
@@ -98,15 +100,18 @@ fn load_view(frames: &[&Frame]) -> Result<CapturedView, RelightError> {
                 return Err(invalid(format!("{}: light_direction {d} is not a direction", f.image_path.display())));
             }
             let rgb = image.pixels().iter().flat_map(|p| [p[0] * p[3], p[1] * p[3], p[2] * p[3]]).collect();
-            for (a, p) in view.alpha.iter_mut().zip(image.pixels()) {
-                *a += p[3];
+            let held_out = f.extras.held_out_light;
+            if !held_out {
+                for (a, p) in view.alpha.iter_mut().zip(image.pixels()) {
+                    *a += p[3];
+                }
             }
-            view.lights.push(LitImage { direction: d.normalize(), rgb, path });
+            view.lights.push(LitImage { direction: d.normalize(), rgb, path, held_out });
         } else if let Some(env) = &f.extras.environment_path {
             view.environments.push(EnvironmentTruth { environment: env.clone(), image, path });
         }
     }
-    let n = view.lights.len().max(1) as f32;
+    let n = view.lights.iter().filter(|l| !l.held_out).count().max(1) as f32;
     view.alpha.iter_mut().for_each(|a| *a /= n);
     Ok(view)
 }
@@ -122,6 +127,14 @@ impl OlatSet {
             .map(|fs| load_view(&fs))
             .collect::<Result<_, _>>()?;
         Ok(Self { views, irradiance: light_irradiance(root) })
+    }
+
+    /// Drops the frames under held-out lights (a training set learns from the others).
+    pub fn without_held_out_lights(mut self) -> Self {
+        for v in &mut self.views {
+            v.lights.retain(|l| !l.held_out);
+        }
+        self
     }
 
     /// Checks that every view has OLAT frames (a training set).
@@ -144,7 +157,8 @@ impl OlatSet {
     pub fn uniformly_lit(&self) -> Result<ImageSet, RelightError> {
         let mut set = ImageSet { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
         for view in &self.views {
-            let dirs: Vec<Vec3> = view.lights.iter().map(|l| l.direction).collect();
+            let lights: Vec<&LitImage> = view.lights.iter().filter(|l| !l.held_out).collect();
+            let dirs: Vec<Vec3> = lights.iter().map(|l| l.direction).collect();
             let weights: Vec<f32> =
                 voronoi_solid_angles(&dirs)?.into_iter().map(|o| o as f32 / self.irradiance).collect();
             let pixels = view
@@ -153,7 +167,7 @@ impl OlatSet {
                 .enumerate()
                 .map(|(i, &a)| {
                     let mut c = [0.0f32; 3];
-                    for (l, w) in view.lights.iter().zip(&weights) {
+                    for (l, w) in lights.iter().zip(&weights) {
                         for (k, ck) in c.iter_mut().enumerate() {
                             *ck += w * l.rgb[3 * i + k];
                         }
@@ -175,10 +189,10 @@ impl OlatSet {
         self.views.iter().map(|v| v.lights.len()).sum()
     }
 
-    /// Every distinct light direction, in order of first appearance.
+    /// Every distinct direction of the non-held-out lights, in order of first appearance.
     pub fn directions(&self) -> Vec<Vec3> {
         let mut out: Vec<Vec3> = Vec::new();
-        for l in self.views.iter().flat_map(|v| &v.lights) {
+        for l in self.views.iter().flat_map(|v| &v.lights).filter(|l| !l.held_out) {
             if !out.iter().any(|d| d.dot(l.direction) > 1.0 - 1e-6) {
                 out.push(l.direction);
             }

@@ -27,6 +27,8 @@ pub struct FrameScore {
     pub truth: PathBuf,
     /// The environment map, for environment frames.
     pub environment: Option<PathBuf>,
+    /// Lit by a light that was not among the training lights.
+    pub held_out_light: bool,
     /// PSNR, dB.
     pub psnr: f64,
     /// SSIM.
@@ -47,8 +49,10 @@ pub struct MeanScore {
 /// The evaluation of a split.
 #[derive(Clone, Debug, Serialize)]
 pub struct RelightReport {
-    /// Novel views under single lights.
+    /// Novel views under single training lights.
     pub lights: MeanScore,
+    /// Novel views under single held-out lights.
+    pub held_out_lights: MeanScore,
     /// Novel views under environment maps.
     pub environments: MeanScore,
     /// Every frame.
@@ -138,7 +142,14 @@ impl RelightModel<'_> {
                 let render = self.render_light(&view.camera, lit.direction);
                 let truth = lucid_image::read_image(&lit.path)?;
                 let (psnr, ssim) = score(&render, &truth)?;
-                let s = FrameScore { view: v, truth: lit.path.clone(), environment: None, psnr, ssim };
+                let s = FrameScore {
+                    view: v,
+                    truth: lit.path.clone(),
+                    environment: None,
+                    held_out_light: lit.held_out,
+                    psnr,
+                    ssim,
+                };
                 keep(&s, &render)?;
                 frames.push(s);
             }
@@ -152,6 +163,7 @@ impl RelightModel<'_> {
                     view: v,
                     truth: truth.path.clone(),
                     environment: Some(truth.environment.clone()),
+                    held_out_light: false,
                     psnr,
                     ssim,
                 };
@@ -159,10 +171,12 @@ impl RelightModel<'_> {
                 frames.push(s);
             }
         }
-        let lights: Vec<&FrameScore> = frames.iter().filter(|s| s.environment.is_none()).collect();
+        let lights: Vec<&FrameScore> = frames.iter().filter(|s| s.environment.is_none() && !s.held_out_light).collect();
+        let held_out: Vec<&FrameScore> = frames.iter().filter(|s| s.held_out_light).collect();
         let envs: Vec<&FrameScore> = frames.iter().filter(|s| s.environment.is_some()).collect();
         Ok(RelightReport {
             lights: mean(&lights),
+            held_out_lights: mean(&held_out),
             environments: mean(&envs),
             seconds_per_environment: env_seconds / envs.len().max(1) as f64,
             environment_directions: directions.len(),

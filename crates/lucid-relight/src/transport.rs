@@ -91,6 +91,10 @@ pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, Rel
     for f in frames {
         // The HDR image when the dataset has one (OLAT frames are linear), else the PNG.
         let path = f.extras.hdr_path.clone().unwrap_or_else(|| f.image_path.clone());
+        if f.extras.held_out_light {
+            // Not a column of this capture's transport matrix (a test of relighting models).
+            continue;
+        }
         if let Some(d) = f.extras.light_direction {
             directions.push(d.normalize());
             images.push(read_image(&path)?);

@@ -17,7 +17,11 @@ use crate::cli::EvalArgs;
 /// Prints the report as a table.
 pub fn print_report(r: &RelightReport) {
     println!("{:<34} {:>7} {:>10} {:>8}", "held-out views under", "frames", "PSNR (dB)", "SSIM");
-    println!("{:<34} {:>7} {:>10.2} {:>8.4}", "single lights", r.lights.frames, r.lights.psnr, r.lights.ssim);
+    println!("{:<34} {:>7} {:>10.2} {:>8.4}", "single training lights", r.lights.frames, r.lights.psnr, r.lights.ssim);
+    let h = &r.held_out_lights;
+    if h.frames > 0 {
+        println!("{:<34} {:>7} {:>10.2} {:>8.4}", "single held-out lights", h.frames, h.psnr, h.ssim);
+    }
     println!(
         "{:<34} {:>7} {:>10.2} {:>8.4}",
         "environment maps", r.environments.frames, r.environments.psnr, r.environments.ssim

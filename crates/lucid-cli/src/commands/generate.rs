@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use crate::cli::{GenArgs, ResponseArg, RigArg};
 use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
-use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, sphere_directions};
+use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, held_out_directions, sphere_directions};
 use lucid_datasets_gen::writer::ViewRenderer;
 
 /// The scenes of `configs/scenes/`, compiled in so `lucid gen NAME` works anywhere.
@@ -65,6 +65,7 @@ struct DatasetRecord<'a> {
     ground_truth: Option<Vec<(f32, f32)>>,
     lights: Option<usize>,
     light_irradiance: Option<f32>,
+    held_out_lights: Option<usize>,
 }
 
 pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
@@ -97,8 +98,12 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
             if !(args.light_irradiance.is_finite() && args.light_irradiance > 0.0) {
                 bail!("--light-irradiance must be positive");
             }
+            if args.held_out_lights > 1024 {
+                bail!("--held-out-lights must be at most 1024");
+            }
             Some(OlatSpec {
                 directions: sphere_directions(args.lights),
+                held_out: held_out_directions(args.held_out_lights),
                 irradiance: args.light_irradiance,
                 environments: builtin_environments(),
             })
@@ -198,6 +203,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         ground_truth: light_field.as_ref().map(|l| l.ground_truth.clone()),
         lights: olat.as_ref().map(|o| o.directions.len()),
         light_irradiance: olat.as_ref().map(|o| o.irradiance),
+        held_out_lights: olat.as_ref().map(|o| o.held_out.len()),
     };
     let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     if spec.olat.is_some() {

@@ -29,6 +29,7 @@ struct RigFile {
     apertures: Option<Vec<f32>>,
     lights: Option<usize>,
     light_irradiance: Option<f32>,
+    held_out_lights: Option<usize>,
 }
 
 /// The rig type named by `--rig`, after applying a rig file's options to `args`.
@@ -69,7 +70,8 @@ pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Re
         focus,
         apertures,
         lights,
-        light_irradiance
+        light_irradiance,
+        held_out_lights
     );
     if let Some(grid) = file.grid
         && from_file("grid")

@@ -107,7 +107,9 @@ pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
     let config = if args.resume && ckpt.is_file() { None } else { Some(relight_config(&args)?) };
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
-    let data = OlatSet::load(&args.dataset, Split::Train).context("loading the OLAT training frames")?;
+    let data = OlatSet::load(&args.dataset, Split::Train)
+        .context("loading the OLAT training frames")?
+        .without_held_out_lights();
     data.require_lights(&args.dataset, Split::Train)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let device = lucid_burn::backend::training_device();

@@ -14,7 +14,7 @@
 //!                 "normal_file_path": "train/r_0_normal.exr",
 //!                 "albedo_file_path": "train/r_0_albedo.exr",
 //!                 "environment_file_path": "envmaps/env_0.exr",
-//!                 "exposure_time": 0.25, "light_direction": [0,0,1],
+//!                 "exposure_time": 0.25, "light_direction": [0,0,1], "held_out_light": true,
 //!                 "aperture_radius": 0.05, "focus_distance": 4.0 } ] }
 //! ```
 //!
@@ -86,6 +86,8 @@ pub struct FrameExtras {
     pub exposure_time: Option<f32>,
     /// Direction towards a directional light, world space (`light_direction`).
     pub light_direction: Option<Vec3>,
+    /// The light is not among the training lights (`held_out_light`; OLAT test views).
+    pub held_out_light: bool,
     /// Thin-lens aperture radius in world units (`aperture_radius`).
     pub aperture_radius: Option<f32>,
     /// Thin-lens focus distance in world units (`focus_distance`).

@@ -155,6 +155,12 @@ impl Context<'_> {
             environment_path: self.extra_path(base, frame, "environment_file_path", key)?,
             exposure_time: self.positive(frame, "exposure_time", &format!("{key}.exposure_time"))?,
             light_direction: self.vec3(frame, "light_direction", &format!("{key}.light_direction"))?,
+            held_out_light: match frame.get("held_out_light") {
+                None => false,
+                Some(v) => v
+                    .as_bool()
+                    .ok_or_else(|| self.invalid(&format!("{key}.held_out_light"), "expected true or false"))?,
+            },
             aperture_radius: self.number(frame, "aperture_radius", &format!("{key}.aperture_radius"))?,
             focus_distance: self.positive(frame, "focus_distance", &format!("{key}.focus_distance"))?,
         };

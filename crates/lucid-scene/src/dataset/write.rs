@@ -32,6 +32,8 @@ pub struct FrameRecord {
     pub exposure_time: Option<f32>,
     /// `light_direction` (towards the light, world space).
     pub light_direction: Option<Vec3>,
+    /// `held_out_light`: the light is not one of the training lights.
+    pub held_out_light: Option<bool>,
     /// `aperture_radius` in world units.
     pub aperture_radius: Option<f32>,
     /// `focus_distance` in world units.
@@ -87,6 +89,7 @@ fn frame_json(frame: &FrameRecord) -> Value {
     put("environment_file_path", frame.environment_file_path.as_ref().map(|p| json!(p)));
     put("exposure_time", frame.exposure_time.map(|v| json!(v)));
     put("light_direction", frame.light_direction.map(|v| json!(v.to_array())));
+    put("held_out_light", frame.held_out_light.map(|v| json!(v)));
     put("aperture_radius", frame.aperture_radius.map(|v| json!(v)));
     put("focus_distance", frame.focus_distance.map(|v| json!(v)));
     Value::Object(obj)
