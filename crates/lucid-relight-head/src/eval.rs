@@ -40,10 +40,10 @@ pub struct FrameScore {
 pub struct MeanScore {
     /// Frames.
     pub frames: usize,
-    /// Mean PSNR, dB.
-    pub psnr: f64,
-    /// Mean SSIM.
-    pub ssim: f64,
+    /// Mean PSNR, dB (`None` without frames).
+    pub psnr: Option<f64>,
+    /// Mean SSIM (`None` without frames).
+    pub ssim: Option<f64>,
 }
 
 /// The evaluation of a split.
@@ -64,12 +64,9 @@ pub struct RelightReport {
 }
 
 fn mean(scores: &[&FrameScore]) -> MeanScore {
-    let n = scores.len().max(1) as f64;
-    MeanScore {
-        frames: scores.len(),
-        psnr: scores.iter().map(|s| s.psnr).sum::<f64>() / n,
-        ssim: scores.iter().map(|s| s.ssim).sum::<f64>() / n,
-    }
+    let n = scores.len() as f64;
+    let average = |f: fn(&FrameScore) -> f64| (n > 0.0).then(|| scores.iter().map(|s| f(s)).sum::<f64>() / n);
+    MeanScore { frames: scores.len(), psnr: average(|s| s.psnr), ssim: average(|s| s.ssim) }
 }
 
 /// `(PSNR, SSIM)` of a render against the truth, both straight alpha, on sRGB over black.

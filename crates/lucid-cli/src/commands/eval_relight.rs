@@ -17,15 +17,15 @@ use crate::cli::EvalArgs;
 /// Prints the report as a table.
 pub fn print_report(r: &RelightReport) {
     println!("{:<34} {:>7} {:>10} {:>8}", "held-out views under", "frames", "PSNR (dB)", "SSIM");
-    println!("{:<34} {:>7} {:>10.2} {:>8.4}", "single training lights", r.lights.frames, r.lights.psnr, r.lights.ssim);
-    let h = &r.held_out_lights;
-    if h.frames > 0 {
-        println!("{:<34} {:>7} {:>10.2} {:>8.4}", "single held-out lights", h.frames, h.psnr, h.ssim);
+    for (label, m) in [
+        ("single training lights", &r.lights),
+        ("single held-out lights", &r.held_out_lights),
+        ("environment maps", &r.environments),
+    ] {
+        if let (Some(psnr), Some(ssim)) = (m.psnr, m.ssim) {
+            println!("{label:<34} {:>7} {psnr:>10.2} {ssim:>8.4}", m.frames);
+        }
     }
-    println!(
-        "{:<34} {:>7} {:>10.2} {:>8.4}",
-        "environment maps", r.environments.frames, r.environments.psnr, r.environments.ssim
-    );
     let mut envs: Vec<&std::path::PathBuf> = r.frames.iter().filter_map(|f| f.environment.as_ref()).collect();
     envs.sort();
     envs.dedup();
@@ -33,10 +33,12 @@ pub fn print_report(r: &RelightReport) {
         let s: Vec<f64> = r.frames.iter().filter(|f| f.environment.as_ref() == Some(env)).map(|f| f.psnr).collect();
         println!("  {:<32} {:>7} {:>10.2}", env.display(), s.len(), s.iter().sum::<f64>() / s.len() as f64);
     }
-    println!(
-        "environments integrated over {} directions, {:.2} s per render",
-        r.environment_directions, r.seconds_per_environment
-    );
+    if r.environments.frames > 0 {
+        println!(
+            "environments integrated over {} directions, {:.2} s per render",
+            r.environment_directions, r.seconds_per_environment
+        );
+    }
 }
 
 /// Evaluates a trained head on `data`, writing `out/`.
