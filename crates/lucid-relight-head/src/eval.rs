@@ -14,7 +14,7 @@ use lucid_relight::voronoi::fibonacci_directions;
 use serde::Serialize;
 
 use crate::config::RelightConfig;
-use crate::data::OlatSet;
+use crate::data::CapturedView;
 use crate::head::RelightHead;
 use crate::render::{Geometry, integrated_radiance, to_image};
 
@@ -119,22 +119,35 @@ impl RelightModel<'_> {
         directions: &[Vec3],
     ) -> Result<Image, RelightError> {
         let weights = light_weights(directions, self.irradiance, env, Weighting::Barycentric)?;
-        let colours =
-            integrated_radiance(self.head, self.config, self.geometry, camera, directions, &weights, self.device);
-        Ok(to_image(self.geometry.render(colours, camera)))
+        Ok(self.render_weighted(camera, directions, &weights))
     }
 
-    /// Renders and scores every frame of `data`'s views; `keep` receives each render with
-    /// its score.
+    /// The view from `camera` under light from `directions` with per-channel `weights` (units
+    /// of one training light).
+    pub fn render_weighted(
+        &self,
+        camera: &lucid_scene::PinholeCamera,
+        directions: &[Vec3],
+        weights: &[[f32; 3]],
+    ) -> Image {
+        let colours =
+            integrated_radiance(self.head, self.config, self.geometry, camera, directions, weights, self.device);
+        to_image(self.geometry.render(colours, camera))
+    }
+
+    /// Renders and scores every frame of `views`; `keep` receives each render with its
+    /// score.
     pub fn evaluate(
         &self,
-        data: &OlatSet,
+        views: &[CapturedView],
         mut keep: impl FnMut(&FrameScore, &Image) -> Result<(), RelightError>,
     ) -> Result<RelightReport, RelightError> {
         let directions = self.environment_directions();
+        // Each map is read and turned into light weights once, not once per view.
+        let mut weights: Vec<(&std::path::Path, Vec<[f32; 3]>)> = Vec::new();
         let mut frames = Vec::new();
         let mut env_seconds = 0.0;
-        for (v, view) in data.views.iter().enumerate() {
+        for (v, view) in views.iter().enumerate() {
             for lit in &view.lights {
                 let render = self.render_light(&view.camera, lit.direction);
                 let truth = lucid_image::read_image(&lit.path)?;
@@ -151,9 +164,17 @@ impl RelightModel<'_> {
                 frames.push(s);
             }
             for truth in &view.environments {
-                let env = lucid_image::read_image(&truth.environment)?;
+                let k = match weights.iter().position(|(p, _)| *p == truth.environment.as_path()) {
+                    Some(k) => k,
+                    None => {
+                        let env = lucid_image::read_image(&truth.environment)?;
+                        let w = light_weights(&directions, self.irradiance, &env, Weighting::Barycentric)?;
+                        weights.push((&truth.environment, w));
+                        weights.len() - 1
+                    }
+                };
                 let start = std::time::Instant::now();
-                let render = self.render_environment(&view.camera, &env, &directions)?;
+                let render = self.render_weighted(&view.camera, &directions, &weights[k].1);
                 env_seconds += start.elapsed().as_secs_f64();
                 let (psnr, ssim) = score(&render, &truth.image)?;
                 let s = FrameScore {

@@ -14,13 +14,14 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
+use lucid_scene::dataset::images::ImageSet;
+
 use super::demo_report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
 use super::metrics::compare_files;
-use lucid_scene::dataset::images::ImageSet;
+use crate::cli::DemoArgs;
 
 /// Points on each held-out PSNR curve.
 const CURVE_POINTS: usize = 8;
-use crate::cli::DemoArgs;
 
 /// Evaluation background of the demo (the Blender set's convention).
 const BACKGROUND: [f32; 3] = [1.0, 1.0, 1.0];
@@ -85,7 +86,7 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let q = MetricSummary::from_images(&quantisation);
     let n = MetricSummary::from_images(&nearest);
     // 3. A NeRF trained on the training views, scored on the same test views.
-    let test_set = lucid_scene::dataset::images::ImageSet::load(dataset.frames(Split::Test))?;
+    let test_set = ImageSet::load(dataset.frames(Split::Test))?;
     let nerf = if args.nerf_steps > 0 { Some(train_nerf(&dataset, &test_set, &args)?) } else { None };
     // 4. A 3DGS cloud, likewise.
     let splat = if args.splat_steps > 0 { Some(train_splat(&dataset, &test_set, &args)?) } else { None };

@@ -51,10 +51,7 @@ pub fn evaluate(
     json: bool,
     device: &Device,
 ) -> anyhow::Result<RelightReport> {
-    let mut data = data.clone();
-    if let Some(limit) = limit {
-        data.views.truncate(limit);
-    }
+    let views = &data.views[..limit.unwrap_or(data.views.len()).min(data.views.len())];
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let model = RelightModel {
         config: &trainer.config,
@@ -64,7 +61,7 @@ pub fn evaluate(
         irradiance: lights.irradiance,
         device,
     };
-    let report = model.evaluate(&data, |score, image| {
+    let report = model.evaluate(views, |score, image| {
         let stem = score.truth.file_stem().and_then(|s| s.to_str()).unwrap_or("frame");
         let name = format!("{:03}_{}.exr", score.view, stem.trim_end_matches(".exr"));
         Ok(lucid_image::write_image(out.join(name), image)?)

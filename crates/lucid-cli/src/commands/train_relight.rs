@@ -86,8 +86,7 @@ fn geometry_stage(
 
 /// The geometry against the held-out views under uniform light (their OLAT frames summed),
 /// where the test split has OLAT frames: the ceiling the head works under.
-fn report_geometry(root: &Path, cloud: &lucid_splat::SplatCloud, trainer: &SplatTrainer) -> anyhow::Result<()> {
-    let test = OlatSet::load(root, Split::Test).context("loading the test views")?;
+fn report_geometry(test: &OlatSet, cloud: &lucid_splat::SplatCloud, trainer: &SplatTrainer) -> anyhow::Result<()> {
     if test.views.is_empty() || test.views.iter().any(|v| v.lights.is_empty()) {
         return Ok(());
     }
@@ -107,6 +106,12 @@ pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
     let config = if args.resume && ckpt.is_file() { None } else { Some(relight_config(&args)?) };
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    // Read once for the geometry's report and the closing evaluation, when either runs.
+    let test = if config.is_some() || !args.no_eval {
+        OlatSet::load(&args.dataset, Split::Test).context("loading the test views")?
+    } else {
+        OlatSet { views: Vec::new(), irradiance: 0.0 }
+    };
     let data = OlatSet::load(&args.dataset, Split::Train)
         .context("loading the OLAT training frames")?
         .without_held_out_lights();
@@ -121,7 +126,7 @@ pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
             let images = data.uniformly_lit()?;
             let (geometry, seconds) = geometry_stage(&config, &dataset, &images, &args.output, args.resume)?;
             let cloud = geometry.model.to_cloud();
-            report_geometry(&args.dataset, &cloud, &geometry)?;
+            report_geometry(&test, &cloud, &geometry)?;
             let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
             (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, seconds)
         }
@@ -183,16 +188,13 @@ pub fn run(args: TrainModelArgs) -> anyhow::Result<()> {
     println!("trained the head {} steps ({elapsed:.1} s in all) -> {}", trainer.step, ckpt.display());
     if args.until.is_some_and(|u| u < t.steps) {
         println!("stopped at step {} of {}; continue with --resume", trainer.step, t.steps);
-    } else if !args.no_eval {
-        let test = OlatSet::load(&args.dataset, Split::Test).context("loading the test views")?;
-        if !test.views.is_empty() {
-            // Rendering needs no gradients: reload on the plain device, where no autodiff graph
-            // builds up over the environment integration's hundreds of decodes.
-            let device = lucid_burn::backend::default_device();
-            let loaded = checkpoint::load(&ckpt, &device)?;
-            let out = args.output.join("eval_test");
-            super::eval_relight::evaluate(&loaded.trainer, &lights, &test, &out, None, false, &device)?;
-        }
+    } else if !args.no_eval && !test.views.is_empty() {
+        // Rendering needs no gradients: reload on the plain device, where no autodiff graph
+        // builds up over the environment integration's hundreds of decodes.
+        let device = lucid_burn::backend::default_device();
+        let loaded = checkpoint::load(&ckpt, &device)?;
+        let out = args.output.join("eval_test");
+        super::eval_relight::evaluate(&loaded.trainer, &lights, &test, &out, None, false, &device)?;
     }
     Ok(())
 }
