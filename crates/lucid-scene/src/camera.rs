@@ -50,6 +50,7 @@ impl Intrinsics {
 
     /// The camera-space direction (not normalised, `z = −1`) through the image point
     /// `(px, py)`, where pixel `(i, j)` covers `[i, i+1) × [j, j+1)`.
+    #[inline]
     pub fn camera_direction(&self, px: f32, py: f32) -> Vec3 {
         Vec3::new((px - self.cx) / self.fx, -(py - self.cy) / self.fy, -1.0)
     }
@@ -100,6 +101,7 @@ impl PinholeCamera {
     }
 
     /// The centre of projection in world space.
+    #[inline]
     pub fn position(&self) -> Vec3 {
         self.camera_to_world.w_axis.xyz()
     }
@@ -117,6 +119,7 @@ impl PinholeCamera {
 }
 
 impl Camera for PinholeCamera {
+    #[inline]
     fn generate_ray(&self, px: f32, py: f32, _lens: Vec2) -> Ray {
         let d = self.intrinsics.camera_direction(px, py);
         Ray::new(self.position(), self.camera_to_world.transform_vector3(d))

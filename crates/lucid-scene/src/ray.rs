@@ -13,11 +13,13 @@ pub struct Ray {
 
 impl Ray {
     /// A ray from `origin` along `direction`, which is normalised here.
+    #[inline]
     pub fn new(origin: Vec3, direction: Vec3) -> Self {
         Self { origin, direction: direction.normalize() }
     }
 
     /// The point at parameter `t` (a distance, since the direction is unit length).
+    #[inline]
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + t * self.direction
     }

@@ -272,7 +272,7 @@ impl PathTracer {
             return None;
         }
         let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
-        let ls = scene.lights[pick].sample(point, rng.uniform2(), scene.bvh.primitives())?;
+        let ls = scene.lights[pick].sample(point, rng.uniform2())?;
         (ls.pdf > 0.0).then_some((light_pick * ls.pdf, ls))
     }
 

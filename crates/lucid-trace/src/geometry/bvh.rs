@@ -1,38 +1,39 @@
 //! A bounding volume hierarchy built with the binned surface-area heuristic (Wald 2007),
-//! flattened into an array for traversal. Written by hand: the crates that exist either
-//! own the primitive type or lack any-hit queries for shadow rays, and this is ~200 lines.
+//! then collapsed to four children per node for traversal ([`super::wide`]). Written by hand:
+//! the crates that exist either own the primitive type or lack any-hit queries for shadow
+//! rays, and this is ~200 lines.
 
 use glam::{Vec3, Vec3A};
 use lucid_scene::Ray;
 
-use super::{Aabb, Intersection, Primitive, Shape};
+use super::wide::WideBvh;
+use super::{Aabb, Intersection, Primitive, Shape, TriangleFrame, triangle_interaction};
 
 const BINS: usize = 16;
 const MAX_LEAF: usize = 4;
 /// Relative cost of one traversal step against one primitive test.
 const TRAVERSAL_COST: f32 = 1.0;
 
+/// A node of the binary tree the builder makes.
 #[derive(Clone, Copy, Debug)]
-struct Node {
-    bounds: Aabb,
+pub(super) struct Node {
+    pub(super) bounds: Aabb,
     /// Leaf: first primitive; interior: index of the second child (the first follows).
-    offset: u32,
+    pub(super) offset: u32,
     /// Leaf: primitive count; interior: 0.
-    count: u16,
-    /// Interior: split axis.
-    axis: u8,
+    pub(super) count: u16,
 }
 
 /// The BVH and the primitives, reordered so that each leaf's are contiguous.
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    nodes: Vec<Node>,
-    /// The nodes' boxes in SIMD form, for traversal.
-    boxes: Vec<[Vec3A; 2]>,
+    bounds: Aabb,
+    /// What traversal visits and tests: the full primitive records are read only for the
+    /// final hit.
+    wide: WideBvh,
     primitives: Vec<Primitive>,
-    /// What traversal tests, one cache line per primitive: the full records are read only
-    /// for the final hit.
-    compact: Vec<CompactShape>,
+    /// Per primitive in BVH order, its triangle's frame (unused for spheres).
+    frames: Vec<TriangleFrame>,
 }
 
 /// Intersection data in SIMD-friendly form: a triangle as a vertex and two edges.
@@ -121,9 +122,16 @@ impl Bvh {
             build(&mut items, 0, &mut nodes);
         }
         let ordered: Vec<Primitive> = items.iter().map(|it| primitives[it.index]).collect();
-        let compact = ordered.iter().map(|p| CompactShape::new(&p.shape)).collect();
-        let boxes = nodes.iter().map(|n| [n.bounds.min.into(), n.bounds.max.into()]).collect();
-        Self { nodes, boxes, primitives: ordered, compact }
+        let compact: Vec<CompactShape> = ordered.iter().map(|p| CompactShape::new(&p.shape)).collect();
+        let bounds = nodes.first().map(|n: &Node| n.bounds).unwrap_or(Aabb::EMPTY);
+        let frames = ordered
+            .iter()
+            .map(|p| match p.shape {
+                Shape::Triangle { p, uv, .. } => TriangleFrame::new(&p, uv),
+                Shape::Sphere { .. } => TriangleFrame { normal: Vec3::Z, tangent: Vec3::X },
+            })
+            .collect();
+        Self { bounds, wide: WideBvh::new(&nodes, &compact), primitives: ordered, frames }
     }
 
     /// The primitives in BVH order: [`Intersection::primitive`] indexes this slice.
@@ -133,84 +141,21 @@ impl Bvh {
 
     /// Bounds of everything.
     pub fn bounds(&self) -> Aabb {
-        self.nodes.first().map(|n| n.bounds).unwrap_or(Aabb::EMPTY)
+        self.bounds
     }
 
     /// The nearest intersection with `t` in `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Intersection> {
-        let mut best: Option<(f32, f32, f32, u32)> = None;
-        let mut closest = t_max;
-        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
-        self.traverse(ray, &mut closest, |prim_index, t_far| {
-            if let Some((t, u, v)) = self.compact[prim_index as usize].intersect(origin, dir, t_min, *t_far) {
-                *t_far = t;
-                best = Some((t, u, v, prim_index));
-            }
-            false
-        });
-        best.map(|(t, u, v, i)| self.primitives[i as usize].shape.interaction(ray, t, u, v, i))
+        let (t, u, v, i) = self.wide.closest(ray, t_min, t_max)?;
+        Some(match self.primitives[i as usize].shape {
+            Shape::Triangle { p, n, uv } => triangle_interaction(&p, n, uv, self.frames[i as usize], t, u, v, i),
+            sphere => sphere.interaction(ray, t, u, v, i),
+        })
     }
 
     /// Whether anything blocks the ray within `(t_min, t_max)` (for shadow rays).
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        let mut far = t_max;
-        let mut hit = false;
-        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
-        self.traverse(ray, &mut far, |prim_index, t_far| {
-            if self.compact[prim_index as usize].intersect(origin, dir, t_min, *t_far).is_some() {
-                hit = true;
-                return true;
-            }
-            false
-        });
-        hit
-    }
-
-    /// Visits leaves front to back; `visit` may shrink `t_far` and returns true to stop.
-    #[inline]
-    fn traverse(&self, ray: &Ray, t_far: &mut f32, mut visit: impl FnMut(u32, &mut f32) -> bool) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        let inv_dir = Vec3A::from(ray.direction).recip();
-        let origin = Vec3A::from(ray.origin);
-        let negative = [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0];
-        let mut stack = [0u32; 64];
-        let mut top = 0;
-        let mut current = 0u32;
-        loop {
-            let node = &self.nodes[current as usize];
-            let [lo, hi] = self.boxes[current as usize];
-            let t0 = (lo - origin) * inv_dir;
-            let t1 = (hi - origin) * inv_dir;
-            let near = t0.min(t1).max_element().max(0.0);
-            let far = t0.max(t1).min_element().min(*t_far);
-            if near <= far {
-                if node.count > 0 {
-                    for i in node.offset..node.offset + node.count as u32 {
-                        if visit(i, t_far) {
-                            return;
-                        }
-                    }
-                } else {
-                    // Visit the child on the ray's side of the split first.
-                    let (near, far) = if negative[node.axis as usize] {
-                        (node.offset, current + 1)
-                    } else {
-                        (current + 1, node.offset)
-                    };
-                    stack[top] = far;
-                    top += 1;
-                    current = near;
-                    continue;
-                }
-            }
-            if top == 0 {
-                return;
-            }
-            top -= 1;
-            current = stack[top];
-        }
+        self.wide.occluded(ray, t_min, t_max)
     }
 }
 
@@ -218,7 +163,7 @@ impl Bvh {
 fn build(items: &mut [BuildItem], first: usize, nodes: &mut Vec<Node>) -> u32 {
     let bounds = items.iter().fold(Aabb::EMPTY, |b, it| b.union(it.bounds));
     let index = nodes.len() as u32;
-    nodes.push(Node { bounds, offset: first as u32, count: items.len() as u16, axis: 0 });
+    nodes.push(Node { bounds, offset: first as u32, count: items.len() as u16 });
     if items.len() <= MAX_LEAF {
         return index;
     }
@@ -230,23 +175,22 @@ fn build(items: &mut [BuildItem], first: usize, nodes: &mut Vec<Node>) -> u32 {
         // Too many for a leaf: split at the median instead.
         let axis = (centres.max - centres.min).max_position();
         items.sort_unstable_by(|a, b| a.centre[axis].total_cmp(&b.centre[axis]));
-        return split_at(items, first, items.len() / 2, axis, index, nodes);
+        return split_at(items, first, items.len() / 2, index, nodes);
     };
     let mid = partition(items, |it| bin_of(it.centre[axis], &centres, axis) < split);
     if mid == 0 || mid == items.len() {
         return index;
     }
-    split_at(items, first, mid, axis, index, nodes)
+    split_at(items, first, mid, index, nodes)
 }
 
-fn split_at(items: &mut [BuildItem], first: usize, mid: usize, axis: usize, index: u32, nodes: &mut Vec<Node>) -> u32 {
+fn split_at(items: &mut [BuildItem], first: usize, mid: usize, index: u32, nodes: &mut Vec<Node>) -> u32 {
     let (left, right) = items.split_at_mut(mid);
     build(left, first, nodes);
     let right_index = build(right, first + mid, nodes);
     let node = &mut nodes[index as usize];
     node.offset = right_index;
     node.count = 0;
-    node.axis = axis as u8;
     index
 }
 
@@ -332,6 +276,52 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    fn random_triangles(n: usize) -> Vec<Primitive> {
+        let mut rng = Rng::new(11, 0);
+        (0..n)
+            .map(|_| {
+                let centre = (rng.uniform2().extend(rng.uniform()) - 0.5) * 20.0;
+                let p = [0, 1, 2].map(|_| centre + (rng.uniform2().extend(rng.uniform()) - 0.5) * 3.0);
+                Primitive {
+                    shape: Shape::Triangle { p, n: None, uv: None },
+                    material: 0,
+                    light: None,
+                    interior_medium: None,
+                    exterior_medium: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn four_wide_traversal_agrees_with_brute_force_on_triangles_and_spheres() {
+        // Counts that leave partly filled packets and leaves holding both kinds of shape.
+        for (triangles, spheres) in [(1, 0), (3, 0), (7, 2), (333, 50)] {
+            let mut prims = random_triangles(triangles);
+            prims.extend(random_spheres(spheres));
+            let bvh = Bvh::new(prims.clone());
+            let mut rng = Rng::new(12, 0);
+            for _ in 0..2000 {
+                let origin = (rng.uniform2().extend(rng.uniform()) - 0.5) * 30.0;
+                let ray = Ray::new(origin, uniform_sphere(rng.uniform2()));
+                let brute = prims
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, p)| p.shape.intersect(&ray, 1e-4, f32::INFINITY).map(|h| (h.0, i)))
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                let got = bvh.intersect(&ray, 1e-4, f32::INFINITY);
+                assert_eq!(got.map(|h| h.t), brute.map(|b| b.0), "{triangles} triangles, {spheres} spheres");
+                if let (Some(h), Some((_, i))) = (got, brute) {
+                    assert_eq!(bvh.primitives()[h.primitive as usize], prims[i]);
+                }
+                assert_eq!(bvh.occluded(&ray, 1e-4, f32::INFINITY), brute.is_some());
+                if let Some((t, _)) = brute {
+                    assert!(!bvh.occluded(&ray, 1e-4, t * 0.999));
+                }
+            }
+        }
     }
 
     #[test]

@@ -4,6 +4,7 @@
 pub mod bvh;
 pub mod mesh_file;
 pub mod procedural;
+mod wide;
 
 use glam::{Vec2, Vec3};
 use lucid_scene::Ray;
@@ -161,37 +162,67 @@ impl Shape {
                 }
             }
             Shape::Triangle { p, n, uv } => {
-                let w = 1.0 - u - v;
                 let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-                let shading = match n {
-                    Some(n) => {
-                        let s = (w * n[0] + u * n[1] + v * n[2]).normalize_or_zero();
-                        if s == Vec3::ZERO {
-                            ng
-                        } else if s.dot(ng) < 0.0 {
-                            -s
-                        } else {
-                            s
-                        }
-                    }
-                    None => ng,
-                };
-                let tex = match uv {
-                    Some(t) => w * t[0] + u * t[1] + v * t[2],
-                    None => Vec2::new(u, v),
-                };
-                let point = w * p[0] + u * p[1] + v * p[2];
-                Intersection {
-                    t,
-                    point,
-                    geometric_normal: ng,
-                    shading_normal: shading,
-                    uv: tex,
-                    tangent: dpdu(&p, uv),
-                    primitive,
-                }
+                triangle_interaction(&p, n, uv, TriangleFrame { normal: ng, tangent: dpdu(&p, uv) }, t, u, v, primitive)
             }
         }
+    }
+}
+
+/// A triangle's unit geometric normal and surface tangent: the same at every point, so the
+/// BVH computes them once per triangle rather than once per hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TriangleFrame {
+    pub(crate) normal: Vec3,
+    pub(crate) tangent: Vec3,
+}
+
+impl TriangleFrame {
+    pub(crate) fn new(p: &[Vec3; 3], uv: Option<[Vec2; 3]>) -> Self {
+        Self { normal: (p[1] - p[0]).cross(p[2] - p[0]).normalize(), tangent: dpdu(p, uv) }
+    }
+}
+
+/// The full record of a hit at barycentrics `(u, v)` of a triangle.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn triangle_interaction(
+    p: &[Vec3; 3],
+    n: Option<[Vec3; 3]>,
+    uv: Option<[Vec2; 3]>,
+    frame: TriangleFrame,
+    t: f32,
+    u: f32,
+    v: f32,
+    primitive: u32,
+) -> Intersection {
+    let w = 1.0 - u - v;
+    let ng = frame.normal;
+    let shading = match n {
+        Some(n) => {
+            let s = (w * n[0] + u * n[1] + v * n[2]).normalize_or_zero();
+            if s == Vec3::ZERO {
+                ng
+            } else if s.dot(ng) < 0.0 {
+                -s
+            } else {
+                s
+            }
+        }
+        None => ng,
+    };
+    let tex = match uv {
+        Some(t) => w * t[0] + u * t[1] + v * t[2],
+        None => Vec2::new(u, v),
+    };
+    Intersection {
+        t,
+        point: w * p[0] + u * p[1] + v * p[2],
+        geometric_normal: ng,
+        shading_normal: shading,
+        uv: tex,
+        tangent: frame.tangent,
+        primitive,
     }
 }
 
