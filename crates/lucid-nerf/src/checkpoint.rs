@@ -3,7 +3,8 @@
 //! Layout: the magic `LUCIDCKP`, a little-endian `u32` format version, then length-prefixed
 //! (`u64`) sections: a JSON header (model kind, configuration, scene box, step, pixel
 //! angle), burn's record of the model parameters, burn's record of the optimiser state, and
-//! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`). Written to a
+//! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`), and, when the run
+//! samples pixels by their loss, the error map ([`ErrorMap::to_bytes`]). Written to a
 //! temporary name and renamed, so a crash never leaves a torn file under the real name.
 
 use std::path::Path;
@@ -19,6 +20,7 @@ use lucid_burn::checkpoint::{invalid, read_kind_sections, write_sections};
 
 use crate::config::NerfConfig;
 use crate::data::ViewInfo;
+use crate::error_map::ErrorMap;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 use crate::trainer::{Trainer, optimizer};
@@ -66,7 +68,10 @@ pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), Checkpoi
     let optim = trainer.optimizer.into_bytes().map_err(|e| invalid(path, e.to_string()))?;
     let thickness: Vec<u8> = trainer.grid.thickness().iter().flat_map(|v| v.to_le_bytes()).collect();
     let bits: Vec<u8> = trainer.grid.bits().iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_sections(path, &[&header[..], &model[..], &optim[..], &thickness[..], &bits[..]])
+    let errors = trainer.error_map.as_ref().map(ErrorMap::to_bytes);
+    let mut sections = vec![&header[..], &model[..], &optim[..], &thickness[..], &bits[..]];
+    sections.extend(errors.as_deref());
+    write_sections(path, &sections)
 }
 
 /// A loaded checkpoint.
@@ -83,9 +88,13 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     let header: CheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
     header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
-    let [model, optim, thickness, bits] = &sections[..] else {
-        return Err(invalid(path, format!("expected 5 sections, found {}", sections.len() + 1)));
+    let (model, optim, thickness, bits, errors) = match &sections[..] {
+        [m, o, t, b] => (m, o, t, b, None),
+        [m, o, t, b, e] => (m, o, t, b, Some(e)),
+        _ => return Err(invalid(path, format!("expected 5 or 6 sections, found {}", sections.len() + 1))),
     };
+    let error_map =
+        errors.map(|e| ErrorMap::from_bytes(e).ok_or_else(|| invalid(path, "malformed error map"))).transpose()?;
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))
         .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
     let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
@@ -110,6 +119,7 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     );
     trainer.rays_per_batch = header.rays_per_batch;
     trainer.view = header.view;
+    trainer.error_map = error_map;
     Ok(Loaded { header, trainer })
 }
 

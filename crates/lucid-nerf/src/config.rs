@@ -103,6 +103,9 @@ pub struct TrainConfig {
     pub eval_background: Background,
     /// Rays stop once transmittance falls below this.
     pub min_transmittance: f32,
+    /// Fraction of each batch's pixels drawn in proportion to a running estimate of their
+    /// loss (instant-ngp's error map, [`crate::error_map`]); the rest uniformly. 0 turns it off.
+    pub error_sampling: f32,
     /// Random seed (initialisation, pixel and jitter sampling).
     pub seed: u64,
     /// Steps between checkpoints (0: only at the end).
@@ -128,6 +131,7 @@ impl Default for TrainConfig {
             background: Background::Random,
             eval_background: Background::White,
             min_transmittance: 1e-4,
+            error_sampling: 0.5,
             seed: 0,
             checkpoint_every: 1000,
             log_every: 50,
@@ -185,6 +189,9 @@ impl NerfConfig {
         }
         if !(t.min_transmittance.is_finite() && (0.0..1.0).contains(&t.min_transmittance)) {
             return Err(format!("train.min_transmittance must be in [0, 1), got {}", t.min_transmittance));
+        }
+        if !(t.error_sampling.is_finite() && (0.0..=1.0).contains(&t.error_sampling)) {
+            return Err(format!("train.error_sampling must be in [0, 1], got {}", t.error_sampling));
         }
         if t.eval_background == Background::Random {
             return Err("train.eval_background must be white or black".into());

@@ -12,6 +12,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod data;
 pub mod encoding;
+pub mod error_map;
 pub mod eval;
 pub mod field;
 pub mod field_ops;

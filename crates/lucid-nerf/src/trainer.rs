@@ -15,6 +15,7 @@ use lucid_scene::sampling::{Rng, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
 use crate::data::{ImageSet, ViewInfo, scene_box};
+use crate::error_map::ErrorMap;
 use crate::field_ops;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
@@ -104,6 +105,9 @@ pub struct Trainer {
     /// Fraction of a wall-clock budget used so far (set by time-limited loops): the
     /// learning-rate schedule follows whichever budget, steps or time, is further along.
     pub budget_progress: f64,
+    /// Per-block loss estimates of the training images, when `train.error_sampling` is on
+    /// (made at the first step, kept in checkpoints).
+    pub error_map: Option<ErrorMap>,
     device: Device,
 }
 
@@ -155,6 +159,7 @@ impl Trainer {
             pixel_angle,
             view: ViewInfo::default(),
             budget_progress: 0.0,
+            error_map: None,
             device,
         }
     }
@@ -191,23 +196,38 @@ impl Trainer {
         lap(&mut timings.occupancy);
         let mut rng = Rng::new(cfg.seed, mix(self.step as u64 + 1));
         let n_rays = (self.rays_per_batch as usize).clamp(64, 1 << 20);
-        // Pixels uniformly over all training pixels, each at a random point of its area.
+        // Pixels uniformly over all training pixels (or, for a fraction of them, by the error
+        // map), each at a random point of its area.
         let sizes: Vec<usize> = (0..data.len()).map(|i| data.size(i).0 * data.size(i).1).collect();
         let total: usize = sizes.iter().sum();
+        if cfg.error_sampling > 0.0 {
+            let dims: Vec<(usize, usize)> = (0..data.len()).map(|i| data.size(i)).collect();
+            if !self.error_map.as_ref().is_some_and(|m| m.fits(&dims)) {
+                self.error_map = Some(ErrorMap::new(&dims, 1.0));
+            }
+        }
         let mut rays = Vec::with_capacity(n_rays);
         let mut targets = Vec::with_capacity(n_rays);
+        let mut picked = Vec::with_capacity(n_rays);
         for _ in 0..n_rays {
-            let mut k = rng.below(total);
-            let mut img = 0;
-            while k >= sizes[img] {
-                k -= sizes[img];
-                img += 1;
-            }
+            let (img, k) = match &self.error_map {
+                Some(map) if rng.uniform() < cfg.error_sampling => map.sample(&mut rng),
+                _ => {
+                    let mut k = rng.below(total);
+                    let mut img = 0;
+                    while k >= sizes[img] {
+                        k -= sizes[img];
+                        img += 1;
+                    }
+                    (img, k)
+                }
+            };
             let w = data.size(img).0;
             let (x, y) = (k % w, k / w);
             let ray = data.cameras[img].generate_ray(x as f32 + rng.uniform(), y as f32 + rng.uniform(), Vec2::ZERO);
             rays.push((ray.origin, ray.direction));
             targets.push(data.pixels[img][k]);
+            picked.push((img, k));
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
         let marcher = self.marcher();
@@ -251,6 +271,13 @@ impl Trainer {
         let pred = rgb + (opacity.neg() + 1.0) * bg;
         let diff = pred - target;
         let mse = diff.clone().square().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
+        if let Some(map) = &mut self.error_map {
+            let per_ray = diff.clone().square().sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
+            for (&(img, k), &e) in picked[..kept].iter().zip(&per_ray) {
+                map.record(map.block_of(img, k), e);
+            }
+            map.rebuild();
+        }
         let loss = match cfg.loss {
             Loss::L2 => diff.square().mean(),
             Loss::Huber => {

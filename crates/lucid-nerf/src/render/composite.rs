@@ -45,28 +45,52 @@ impl PackedSamples {
 /// Rays per parallel task.
 const CHUNK: usize = 64;
 
+/// One ray's compositing so far, front to back: what [`composite_forward`] computes per ray,
+/// kept between calls so that a renderer can composite a ray in several rounds of samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayAccumulator {
+    /// `r, g, b, opacity, depth` so far.
+    pub acc: [f32; RAY_OUTPUTS],
+    /// Transmittance in front of the next sample.
+    pub transmittance: f32,
+}
+
+impl Default for RayAccumulator {
+    fn default() -> Self {
+        Self { acc: [0.0; RAY_OUTPUTS], transmittance: 1.0 }
+    }
+}
+
+impl RayAccumulator {
+    /// Adds one sample (`raw` = `σ, r, g, b`); false once transmittance has fallen below
+    /// `min_transmittance` (the ray is done).
+    #[inline]
+    pub fn add(&mut self, raw: &[f32], t: f32, dt: f32, min_transmittance: f32) -> bool {
+        let alpha = 1.0 - (-raw[0] * dt).exp();
+        let w = self.transmittance * alpha;
+        for k in 0..3 {
+            self.acc[k] += w * raw[1 + k];
+        }
+        self.acc[3] += w;
+        self.acc[4] += w * t;
+        self.transmittance *= 1.0 - alpha;
+        self.transmittance >= min_transmittance
+    }
+}
+
 /// Composites `raw` (`S×4`: `σ, r, g, b`) into `out` (`R×5`: `r, g, b, opacity, depth`).
 pub fn composite_forward(samples: &PackedSamples, raw: &[f32], min_transmittance: f32, out: &mut [f32]) {
     assert_eq!(raw.len(), samples.samples() * 4, "raw values are S×4");
     assert_eq!(out.len(), samples.rays() * RAY_OUTPUTS, "output is R×5");
     out.par_chunks_mut(CHUNK * RAY_OUTPUTS).enumerate().for_each(|(c, out)| {
         for (i, o) in out.chunks_exact_mut(RAY_OUTPUTS).enumerate() {
-            let mut acc = [0f32; RAY_OUTPUTS];
-            let mut transmittance = 1.0f32;
+            let mut ray = RayAccumulator::default();
             for s in samples.range(c * CHUNK + i) {
-                let alpha = 1.0 - (-raw[4 * s] * samples.dt[s]).exp();
-                let w = transmittance * alpha;
-                for k in 0..3 {
-                    acc[k] += w * raw[4 * s + 1 + k];
-                }
-                acc[3] += w;
-                acc[4] += w * samples.t[s];
-                transmittance *= 1.0 - alpha;
-                if transmittance < min_transmittance {
+                if !ray.add(&raw[4 * s..4 * s + 4], samples.t[s], samples.dt[s], min_transmittance) {
                     break;
                 }
             }
-            o.copy_from_slice(&acc);
+            o.copy_from_slice(&ray.acc);
         }
     });
 }

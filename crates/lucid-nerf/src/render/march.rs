@@ -98,20 +98,49 @@ impl RayMarcher {
         t_out: &mut Vec<f32>,
         dt_out: &mut Vec<f32>,
     ) {
+        if let Some(mut state) = self.start(origin, dir, grid, jitter) {
+            self.advance(origin, dir, grid, &mut state, usize::MAX, t_out, dt_out);
+        }
+    }
+
+    /// Where the marching of a ray starts, or `None` if it misses the box.
+    pub fn start(&self, origin: Vec3, dir: Vec3, grid: &OccupancyGrid, jitter: f32) -> Option<MarchState> {
         let (lo, hi) = grid.bounds();
-        let Some((t0, t1)) = intersect_box(origin, dir, lo, hi) else { return };
-        let mut t = t0.max(self.near);
-        t += jitter * self.step(t);
+        let (t0, t1) = intersect_box(origin, dir, lo, hi)?;
+        let t = t0.max(self.near);
+        Some(MarchState { t: t + jitter * self.step(t), exit: t1, samples: 0 })
+    }
+
+    /// Appends up to `limit` more samples of the ray to `t` and `dt` (the same ones a single
+    /// [`RayMarcher::march`] places, so rendering in rounds changes nothing); false once the
+    /// ray has left the box or has all its samples.
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        grid: &OccupancyGrid,
+        state: &mut MarchState,
+        limit: usize,
+        t_out: &mut Vec<f32>,
+        dt_out: &mut Vec<f32>,
+    ) -> bool {
         let inv = dir.recip();
-        let mut n = 0;
-        while t < t1 && n < self.max_samples {
+        let mut t = state.t;
+        let mut added = 0;
+        while t < state.exit && state.samples < self.max_samples {
+            if added == limit {
+                state.t = t;
+                return true;
+            }
             let p = origin + t * dir;
             let Some(cell) = grid.cell_at(p) else { break };
             if grid.is_occupied(cell) {
                 let dt = self.step(t);
                 t_out.push(t);
                 dt_out.push(dt);
-                n += 1;
+                state.samples += 1;
+                added += 1;
                 t += dt;
             } else {
                 // Jump to where the ray leaves this cell, keeping a whole number of steps so
@@ -122,7 +151,20 @@ impl RayMarcher {
                 t += ((exit - t) / dt).ceil().max(1.0) * dt;
             }
         }
+        state.t = t;
+        false
     }
+}
+
+/// How far the marching of one ray has got.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchState {
+    /// Where the next sample may be.
+    t: f32,
+    /// Where the ray leaves the scene box.
+    exit: f32,
+    /// Samples placed so far.
+    samples: usize,
 }
 
 /// Entry and exit distances of a ray through a box, or `None` on a miss.

@@ -1,8 +1,6 @@
 //! Rendering whole views from a model: pixel-centre rays (or rays over a thin lens), marched
 //! with the occupancy grid and early termination, in blocks of rays.
 
-use std::sync::Arc;
-
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
 use lucid_image::Image;
@@ -11,16 +9,35 @@ pub use lucid_scene::evaluation::RenderedView;
 use lucid_scene::evaluation::ViewModel;
 use lucid_scene::sampling::stratified_square;
 
-use super::batch::march_rays;
-use super::composite::RAY_OUTPUTS;
-use super::march::RayMarcher;
+use rayon::prelude::*;
+
+use super::composite::{RAY_OUTPUTS, RayAccumulator};
+use super::march::{MarchState, RayMarcher};
 use crate::field::FieldConfig;
-use crate::field_ops;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 
-/// Rays per block: bounds the memory of one field evaluation.
+/// Rays per block of a view.
 const BLOCK_RAYS: usize = 1 << 14;
+/// Samples per round of [`ViewRenderer::render_rays`]: enough for the field's matrix products
+/// to run at speed, few enough that rays are not evaluated far past the surface that stops
+/// them.
+const ROUND_SAMPLES: usize = 1 << 17;
+/// The fewest samples a live ray gets in a round.
+const MIN_ROUND_SAMPLES: usize = 8;
+/// Live rays per parallel marching task.
+const MARCH_CHUNK: usize = 256;
+
+/// What one task marched in a round, ray after ray.
+#[derive(Default)]
+struct RoundPart {
+    counts: Vec<u32>,
+    more: Vec<bool>,
+    t: Vec<f32>,
+    dt: Vec<f32>,
+    positions: Vec<f32>,
+    directions: Vec<f32>,
+}
 
 /// What renders a view.
 pub struct ViewRenderer<'a> {
@@ -113,16 +130,87 @@ impl ViewRenderer<'_> {
     }
 
     /// Composited `r, g, b, opacity, depth` (no background) of each ray, and the sample count.
+    ///
+    /// Rays go in rounds: each round marches every live ray a few samples further, evaluates
+    /// the field on all of those at once and composites them onto their rays; a ray stops once
+    /// its transmittance falls below the threshold. Marching whole rays first would evaluate
+    /// the field behind every surface, most of the work in a scene of opaque objects.
     pub fn render_rays(&self, rays: &[(Vec3, Vec3)]) -> (Vec<f32>, usize) {
-        let (batch, _) = march_rays(rays, |_| 0.5, &self.marcher, self.grid, None);
-        let s = batch.samples.samples();
-        if s == 0 {
-            return (vec![0.0; rays.len() * RAY_OUTPUTS], 0);
+        let mut accs = vec![RayAccumulator::default(); rays.len()];
+        let mut live: Vec<(usize, MarchState)> = rays
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &(o, d))| self.marcher.start(o, d, self.grid, 0.5).map(|m| (i, m)))
+            .collect();
+        let (lo, hi) = self.grid.bounds();
+        let inv_size = (hi - lo).recip();
+        let mut total = 0;
+        while !live.is_empty() {
+            let per_ray = (ROUND_SAMPLES / live.len()).max(MIN_ROUND_SAMPLES);
+            // Per chunk of live rays: sample counts, whether each goes on, t, dt, positions and
+            // directions.
+            let parts: Vec<RoundPart> = live
+                .par_chunks_mut(MARCH_CHUNK)
+                .map(|chunk| {
+                    let mut part = RoundPart::default();
+                    for (ray, state) in chunk.iter_mut() {
+                        let (o, d) = rays[*ray];
+                        let before = part.t.len();
+                        let more = self.marcher.advance(o, d, self.grid, state, per_ray, &mut part.t, &mut part.dt);
+                        for &ts in &part.t[before..] {
+                            let p = ((o + ts * d - lo) * inv_size).clamp(Vec3::ZERO, Vec3::ONE);
+                            part.positions.extend(p.to_array());
+                            part.directions.extend(d.to_array());
+                        }
+                        part.counts.push((part.t.len() - before) as u32);
+                        part.more.push(more);
+                    }
+                    part
+                })
+                .collect();
+            let s: usize = parts.iter().map(|p| p.t.len()).sum();
+            total += s;
+            let raw = if s == 0 {
+                Vec::new()
+            } else {
+                let cat = |f: fn(&RoundPart) -> &Vec<f32>| parts.iter().flat_map(|p| f(p).iter().copied()).collect();
+                let pos = Tensor::<2>::from_data(TensorData::new(cat(|p| &p.positions), [s, 3]), &self.device);
+                let dir = Tensor::<2>::from_data(TensorData::new(cat(|p| &p.directions), [s, 3]), &self.device);
+                self.model.field(pos, dir, self.config).into_data().try_to_vec::<f32>().expect("f32 field output")
+            };
+            // Composite each ray's new samples in order; keep the rays that go on.
+            let mut next = Vec::with_capacity(live.len());
+            let mut at = 0;
+            let mut rank = 0;
+            for part in &parts {
+                let mut local = 0;
+                for (&n, &more) in part.counts.iter().zip(&part.more) {
+                    let (ray, state) = live[rank];
+                    rank += 1;
+                    let n = n as usize;
+                    let acc = &mut accs[ray];
+                    let mut going = more;
+                    for j in 0..n {
+                        let g = at + j;
+                        if !acc.add(
+                            &raw[4 * g..4 * g + 4],
+                            part.t[local + j],
+                            part.dt[local + j],
+                            self.min_transmittance,
+                        ) {
+                            going = false;
+                            break;
+                        }
+                    }
+                    local += n;
+                    at += n;
+                    if going {
+                        next.push((ray, state));
+                    }
+                }
+            }
+            live = next;
         }
-        let pos = Tensor::<2>::from_data(TensorData::new(batch.positions, [s, 3]), &self.device);
-        let dir = Tensor::<2>::from_data(TensorData::new(batch.directions, [s, 3]), &self.device);
-        let raw = self.model.field(pos, dir, self.config);
-        let out = field_ops::composite(raw, Arc::new(batch.samples), self.min_transmittance);
-        (out.into_data().try_to_vec::<f32>().expect("f32 output"), s)
+        (accs.iter().flat_map(|a| a.acc).collect(), total)
     }
 }
