@@ -270,9 +270,10 @@ impl Trainer {
         let target = Tensor::<2>::from_data(TensorData::new(target, [kept, 3]), device);
         let pred = rgb + (opacity.neg() + 1.0) * bg;
         let diff = pred - target;
-        let mse = diff.clone().square().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
+        let squared = diff.clone().square();
+        let mse = squared.clone().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
         if let Some(map) = &mut self.error_map {
-            let per_ray = diff.clone().square().sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
+            let per_ray = squared.sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
             for (&(img, k), &e) in picked[..kept].iter().zip(&per_ray) {
                 map.record(map.block_of(img, k), e);
             }

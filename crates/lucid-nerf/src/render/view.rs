@@ -11,6 +11,7 @@ use lucid_scene::sampling::stratified_square;
 
 use rayon::prelude::*;
 
+use super::batch::box_position;
 use super::composite::{RAY_OUTPUTS, RayAccumulator};
 use super::march::{MarchState, RayMarcher};
 use crate::field::FieldConfig;
@@ -158,8 +159,7 @@ impl ViewRenderer<'_> {
                         let before = part.t.len();
                         let more = self.marcher.advance(o, d, self.grid, state, per_ray, &mut part.t, &mut part.dt);
                         for &ts in &part.t[before..] {
-                            let p = ((o + ts * d - lo) * inv_size).clamp(Vec3::ZERO, Vec3::ONE);
-                            part.positions.extend(p.to_array());
+                            part.positions.extend(box_position(o, d, ts, lo, inv_size).to_array());
                             part.directions.extend(d.to_array());
                         }
                         part.counts.push((part.t.len() - before) as u32);
