@@ -6,7 +6,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 use crate::environment::EnvironmentMap;
-use crate::geometry::{Primitive, Shape};
+use crate::geometry::{Primitive, Shape, triangle_normal};
 use crate::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere, uniform_triangle};
 
 /// A light source.
@@ -42,8 +42,6 @@ pub enum Light {
     },
     /// An emissive mesh: one-sided (front = geometric normal) unless `two_sided`.
     Area {
-        /// The emitting primitives (indices into the BVH's primitive order).
-        primitives: Vec<u32>,
         /// Cumulative areas for picking a primitive proportionally to its area.
         cdf: Vec<f32>,
         /// Each primitive's shape, copied here with its unit normal (for triangles; a sphere's
@@ -92,12 +90,12 @@ impl Light {
             area += shape.area();
             cdf.push(area);
             let normal = match shape {
-                Shape::Triangle { p, .. } => (p[1] - p[0]).cross(p[2] - p[0]).normalize(),
+                Shape::Triangle { p, .. } => triangle_normal(&p),
                 Shape::Sphere { .. } => Vec3::ZERO,
             };
             shapes.push((shape, normal));
         }
-        Light::Area { primitives, cdf, shapes, area, radiance, two_sided }
+        Light::Area { cdf, shapes, area, radiance, two_sided }
     }
 
     /// Samples a direction towards the light from `point`.
@@ -126,7 +124,7 @@ impl Light {
             Light::Directional { direction, irradiance } => {
                 Some(LightSample { wi: *direction, li: *irradiance, pdf: 1.0, distance: f32::INFINITY, delta: true })
             }
-            Light::Area { cdf, shapes, area, radiance, two_sided, .. } => {
+            Light::Area { cdf, shapes, area, radiance, two_sided } => {
                 // Pick a primitive by area, reusing u.x rescaled, then a uniform point on it.
                 let target = u.x * area;
                 let k = cdf.partition_point(|&c| c <= target).min(shapes.len() - 1);
@@ -233,7 +231,7 @@ pub fn sample_shape(shape: &Shape, u: Vec2) -> (Vec3, Vec3) {
             let n = uniform_sphere(u);
             (centre + radius * n, n)
         }
-        Shape::Triangle { p, .. } => (point_on_triangle(&p, u), (p[1] - p[0]).cross(p[2] - p[0]).normalize()),
+        Shape::Triangle { p, .. } => (point_on_triangle(&p, u), triangle_normal(&p)),
     }
 }
 

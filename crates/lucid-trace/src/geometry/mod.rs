@@ -162,8 +162,7 @@ impl Shape {
                 }
             }
             Shape::Triangle { p, n, uv } => {
-                let ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-                triangle_interaction(&p, n, uv, TriangleFrame { normal: ng, tangent: dpdu(&p, uv) }, t, u, v, primitive)
+                triangle_interaction(&p, n, uv, TriangleFrame::new(&p, uv), t, u, v, primitive)
             }
         }
     }
@@ -179,8 +178,13 @@ pub(crate) struct TriangleFrame {
 
 impl TriangleFrame {
     pub(crate) fn new(p: &[Vec3; 3], uv: Option<[Vec2; 3]>) -> Self {
-        Self { normal: (p[1] - p[0]).cross(p[2] - p[0]).normalize(), tangent: dpdu(p, uv) }
+        Self { normal: triangle_normal(p), tangent: dpdu(p, uv) }
     }
+}
+
+/// A triangle's unit geometric normal (counter-clockwise winding faces it).
+pub(crate) fn triangle_normal(p: &[Vec3; 3]) -> Vec3 {
+    (p[1] - p[0]).cross(p[2] - p[0]).normalize()
 }
 
 /// The full record of a hit at barycentrics `(u, v)` of a triangle.
