@@ -154,9 +154,9 @@ impl FieldLayout {
         let stride = self.stride;
         let run = |pos: &[f32], dir: &[f32], out: &mut [f32], act: &mut [f32]| {
             let n = pos.len() / 3;
+            self.grid.encode_chunk(pos, table, act, stride);
             for i in 0..n {
                 let row = &mut act[i * stride..(i + 1) * stride];
-                self.grid.encode_point([pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]], table, row);
                 let sh = &mut row[self.colour_in + self.density.output()..][..SH_COEFFICIENTS];
                 sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
             }
@@ -195,10 +195,7 @@ impl FieldLayout {
             || vec![0.0; CHUNK * stride],
             |act, (out, pos)| {
                 let n = out.len();
-                for i in 0..n {
-                    let row = &mut act[i * stride..(i + 1) * stride];
-                    self.grid.encode_point([pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]], table, row);
-                }
+                self.grid.encode_chunk(pos, table, act, stride);
                 self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n);
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = act[i * stride + self.colour_in].min(MAX_LOG_DENSITY).exp();
