@@ -41,7 +41,7 @@ pub fn fast_exp(x: f32) -> f32 {
 }
 
 /// One splat's constants for the kernels: its exponent is `pw = qa·dx² + qb·dx·dy + qc·dy²`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct SplatLanes {
     qa: f32,
     qb: f32,
@@ -95,8 +95,9 @@ pub struct ForwardRun<'a> {
     pub rgb: [&'a mut [f32; LANES]; 3],
     /// Accumulated weighted depth.
     pub depth: &'a mut [f32; LANES],
-    /// Index + 1 of the last splat blended.
-    pub last: &'a mut [u32; LANES],
+    /// Index + 1 of the last splat blended, as a float (exact below 2²⁴): as an integer the
+    /// compiler turns its update into a masked store, which AMD CPUs run as slow microcode.
+    pub last: &'a mut [f32; LANES],
     /// 1 once the pixel has stopped (or lies outside the image), else 0.
     pub done: &'a mut [u32; LANES],
 }
@@ -134,7 +135,7 @@ pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: For
         depth[l] += s.depth * w;
         trans[l] = t * (1.0 - alpha * on);
         // Indices only grow along the tile's list.
-        last[l] = last[l].max(blend as u32 * index);
+        last[l] = last[l].max(on * index as f32);
         done[l] |= stop as u32;
         blends += blend as u32;
         stopped += stop as u32;

@@ -8,6 +8,7 @@
 //! once per (tile, splat) pair. Those per-pair gradients are then summed per splat in a
 //! fixed order, so results do not depend on the thread count.
 
+use lucid_scene::prefetch::prefetch;
 use rayon::prelude::*;
 
 use crate::blend::{BackwardRun, ForwardRun, GradLanes, LANES, Run, SplatLanes, backward_run, forward_run};
@@ -18,8 +19,6 @@ use crate::project::{ProjectedGrad, ProjectedSplat};
 /// Tile side in pixels.
 pub const TILE: usize = 16;
 const TILE_PIXELS: usize = TILE * TILE;
-/// 8-pixel runs per tile.
-const RUNS: usize = TILE_PIXELS / LANES;
 /// Opacity cap: no splat fully hides what is behind it (keeps the backward's division safe).
 pub const MAX_ALPHA: f32 = 0.99;
 /// A pixel stops once its transmittance would fall below this.
@@ -149,6 +148,37 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     TileBins { tiles_x, tiles_y, offsets, ids, splats, splat_offsets, splat_pairs }
 }
 
+/// Splats per block that the kernels gather before compositing them.
+const GATHER: usize = 64;
+/// How many splats ahead the gather prefetches.
+const PREFETCH_AHEAD: usize = 8;
+
+/// A splat of a tile's list ready for the kernels: its constants and its box in the tile.
+#[derive(Clone, Copy, Debug, Default)]
+struct TileSplat {
+    lanes: SplatLanes,
+    /// `[x0, x1, y0, y1]` in tile pixels (at most [`TILE`]).
+    rect: [u8; 4],
+}
+
+/// Copies the splats `ids` of tile `(tx, ty)` into `out`. The list is in depth order, so each
+/// `splats[i]` is a cache miss; read as the kernels go, each miss stalled the blending behind
+/// it, while this loop of loads alone keeps many misses in flight.
+#[inline(always)]
+fn gather(splats: &[ProjectedSplat], ids: &[u32], tx: usize, ty: usize, out: &mut [TileSplat; GATHER]) {
+    for &i in &ids[..ids.len().min(PREFETCH_AHEAD)] {
+        prefetch(splats, i as usize);
+    }
+    for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
+        if let Some(&ahead) = ids.get(k + PREFETCH_AHEAD) {
+            prefetch(splats, ahead as usize);
+        }
+        let s = &splats[i as usize];
+        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
+        *slot = TileSplat { lanes: SplatLanes::new(s), rect: [x0 as u8, x1 as u8, y0 as u8, y1 as u8] };
+    }
+}
+
 /// What the backward needs from the forward, per pixel.
 #[derive(Clone, Debug, Default)]
 pub struct PixelState {
@@ -193,12 +223,12 @@ pub fn rasterize(
                     let mut trans = [1.0f32; TILE_PIXELS];
                     let mut rgb = [[0.0f32; TILE_PIXELS]; 3];
                     let mut depth = [0.0f32; TILE_PIXELS];
-                    let mut last = [0u32; TILE_PIXELS];
+                    let mut last = [0f32; TILE_PIXELS];
                     let mut done = [0u32; TILE_PIXELS];
                     let mut n_done = 0;
                     // Pixels still blending per run: runs whose pixels have all stopped are
                     // skipped (behind an opaque surface most of a tile's list is).
-                    let mut live = [LANES as u32; RUNS];
+                    let mut live = [LANES as u32; TILE_PIXELS / LANES];
                     for (k, d) in done.iter_mut().enumerate() {
                         if tx * TILE + k % TILE >= width || ty * TILE + k / TILE >= height {
                             *d = 1;
@@ -207,15 +237,22 @@ pub fn rasterize(
                         }
                     }
                     let mut blends = 0u64;
-                    for (j, &i) in bins.ids[bins.offsets[t]..bins.offsets[t + 1]].iter().enumerate() {
+                    let list = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
+                    for &i in &list[..list.len().min(PREFETCH_AHEAD)] {
+                        prefetch(splats, i as usize);
+                    }
+                    for (j, &i) in list.iter().enumerate() {
                         if n_done == TILE_PIXELS {
                             break;
+                        }
+                        if let Some(&ahead) = list.get(j + PREFETCH_AHEAD) {
+                            prefetch(splats, ahead as usize);
                         }
                         let s = &splats[i as usize];
                         let lanes_of = SplatLanes::new(s);
                         let (x0, x1, y0, y1) = local_rect(s, tx, ty);
                         for ly in y0..y1 {
-                            for (o, run) in runs(tx, ty, ly, x0, x1) {
+                            for (o, run) in aligned_runs(tx, ty, ly, x0, x1) {
                                 if live[o / LANES] == 0 {
                                     continue;
                                 }
@@ -259,17 +296,19 @@ pub fn rasterize(
             }
             image[4 * idx + 3] = 1.0 - trans[k];
             state.final_t[idx] = trans[k];
-            state.n_contrib[idx] = last[k];
+            state.n_contrib[idx] = last[k] as u32;
             state.depth[idx] = depth[k];
         }
     }
     (image, state)
 }
 
-/// The (up to two) 8-pixel runs of tile row `ly` that meet the local box columns `[x0, x1)`,
-/// with their offsets in the tile's arrays.
+/// The (up to two) 8-pixel runs of tile row `ly`, at the row's halves, that meet the local
+/// box columns `[x0, x1)`, with their offsets in the tile's arrays. The forward keeps runs at
+/// fixed places: a run then reads exactly the lanes an earlier run stored, which the CPU
+/// forwards from its store buffer; a run shifted against the stores before it waits for them.
 #[inline(always)]
-fn runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
+fn aligned_runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
     (0..TILE / LANES).filter_map(move |c| {
         let (lo, hi) = (c * LANES, (c + 1) * LANES);
         (x0 < hi && x1 > lo).then(|| {
@@ -281,6 +320,30 @@ fn runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<
             };
             (ly * TILE + lo, run)
         })
+    })
+}
+
+/// The 8-pixel runs of tile row `ly` that cover the local box columns `[x0, x1)`, with their
+/// offsets in the tile's arrays: one run placed over a box at most 8 wide (most splats of a
+/// trained cloud are a few pixels across, and one straddling the tile's middle column would
+/// otherwise take two mostly idle runs), else the row's two halves.
+#[inline(always)]
+fn runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
+    let (starts, count) = if x1 <= x0 {
+        ([0, 0], 0)
+    } else if x1 - x0 <= LANES {
+        ([x0.min(TILE - LANES), 0], 1)
+    } else {
+        ([0, LANES], 2)
+    };
+    starts.into_iter().take(count).map(move |lo| {
+        let run = Run {
+            x: (tx * TILE + lo) as f32 + 0.5,
+            y: (ty * TILE + ly) as f32 + 0.5,
+            first: x0.saturating_sub(lo) as f32,
+            end: (x1.min(lo + LANES) - lo) as f32,
+        };
+        (ly * TILE + lo, run)
     })
 }
 
@@ -329,12 +392,14 @@ pub fn rasterize_backward(
                 // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
                 // behind splat i, seeded with the background's share.
                 let mut behind = [[0.0f32; TILE_PIXELS]; 3];
-                let mut max_contrib = 0;
+                // Per tile row, the most contributors of its pixels: a splat at or past it
+                // touches none of them (every lane would be masked off), so the row is skipped.
+                let mut row_contrib = [0u32; TILE];
                 for (k, idx) in tile_pixels(t, bins, width, height) {
                     trans[k] = state.final_t[idx];
                     t_final[k] = state.final_t[idx];
                     n_contrib[k] = state.n_contrib[idx];
-                    max_contrib = max_contrib.max(n_contrib[k] as usize);
+                    row_contrib[k / TILE] = row_contrib[k / TILE].max(n_contrib[k]);
                     for c in 0..4 {
                         dout[c][k] = grad_image[4 * idx + c];
                     }
@@ -342,33 +407,42 @@ pub fn rasterize_backward(
                         behind[c][k] = t_final[k] * background[c];
                     }
                 }
+                let max_contrib = row_contrib.iter().copied().max().unwrap_or(0) as usize;
                 let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-                for j in (0..max_contrib).rev() {
-                    let s = &splats[ids[j] as usize];
-                    let lanes_of = SplatLanes::new(s);
-                    let mut acc = GradLanes::default();
-                    let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                    for ly in y0..y1 {
-                        for (o, run) in runs(tx, ty, ly, x0, x1) {
-                            let [br, bg, bb] = &mut behind;
-                            let [d0, d1, d2, d3] = &dout;
-                            backward_run(
-                                &lanes_of,
-                                j as u32,
-                                run,
-                                min_alpha,
-                                BackwardRun {
-                                    trans: lanes_mut(&mut trans, o),
-                                    t_final: lanes(&t_final, o),
-                                    n_contrib: lanes(&n_contrib, o),
-                                    dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
-                                    behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
-                                },
-                                &mut acc,
-                            );
+                let mut block = [TileSplat::default(); GATHER];
+                for start in (0..max_contrib).step_by(GATHER).rev() {
+                    let end = (start + GATHER).min(max_contrib);
+                    gather(splats, &ids[start..end], tx, ty, &mut block);
+                    for j in (start..end).rev() {
+                        let ts = &block[j - start];
+                        let lanes_of = &ts.lanes;
+                        let mut acc = GradLanes::default();
+                        let [x0, x1, y0, y1] = ts.rect.map(usize::from);
+                        for ly in y0..y1 {
+                            if j as u32 >= row_contrib[ly] {
+                                continue;
+                            }
+                            for (o, run) in runs(tx, ty, ly, x0, x1) {
+                                let [br, bg, bb] = &mut behind;
+                                let [d0, d1, d2, d3] = &dout;
+                                backward_run(
+                                    lanes_of,
+                                    j as u32,
+                                    run,
+                                    min_alpha,
+                                    BackwardRun {
+                                        trans: lanes_mut(&mut trans, o),
+                                        t_final: lanes(&t_final, o),
+                                        n_contrib: lanes(&n_contrib, o),
+                                        dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
+                                        behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
+                                    },
+                                    &mut acc,
+                                );
+                            }
                         }
+                        grads[j] = acc.total();
                     }
-                    grads[j] = acc.total();
                 }
             },
         )

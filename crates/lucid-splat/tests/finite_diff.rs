@@ -114,3 +114,61 @@ fn sh_dc() {
 fn sh_rest() {
     check("sh_rest", |c| &mut c.sh_rest, |g| &g.sh_rest);
 }
+
+/// Many splats stacked over a few tiles, opaque enough that most pixels stop early: tile lists
+/// longer than the kernels' gather blocks, rows whose pixels all stopped, runs at every offset.
+fn crowd() -> SplatCloud {
+    let n = 160;
+    let mut c = SplatCloud::default();
+    for k in 0..n {
+        let p = Vec3::new(0.5 * pseudo(500 + k), 0.6 * pseudo(700 + k), 0.35 * pseudo(900 + k));
+        c.push(p, 0.04 + 0.04 * (pseudo(1100 + k) + 1.0), 0.75 + 0.2 * pseudo(1300 + k), [0.5, 0.4, 0.3]);
+    }
+    for k in 0..4 * n {
+        if k % 4 != 0 {
+            c.rotations[k] = 0.6 * pseudo(1500 + k);
+        }
+    }
+    for k in 0..3 * n {
+        c.log_scales[k] += 0.4 * pseudo(1700 + k);
+        c.sh_dc[k] = 0.5 * pseudo(1900 + k);
+    }
+    c
+}
+
+#[test]
+fn long_tile_lists_and_stopped_pixels() {
+    let cam = camera();
+    let settings =
+        RenderSettings { background: [0.2, 0.5, 0.9], min_alpha: 1e-7, extent_sigmas: 6.0, ..Default::default() };
+    let mut c = crowd();
+    let w = weights(cam.width as usize * cam.height as usize * 4);
+    let (image, state) = render(&c.params(), &cam, &settings);
+    assert!(state.bins.offsets.windows(2).any(|o| o[1] - o[0] > 130), "some tile lists span several gather blocks");
+    // Pixels stop before their transmittance would fall below 1e-4.
+    let stopped = (0..image.len() / 4).filter(|&p| image[4 * p + 3] > 1.0 - 1e-3).count();
+    assert!(stopped > image.len() / 4 / 16, "many pixels stop early ({stopped})");
+    let g = render_backward(&c.params(), &state, &w);
+    let scale = g.opacities.iter().chain(&g.means).fold(0.0f32, |m, v| m.max(v.abs())).max(1e-3);
+    // Opacities and the mean's x (the camera looks along −y and down; x leaves the depth
+    // order alone, whose swaps would make the image jump).
+    let h = 1e-3;
+    let mut fd_of = |field: fn(&mut SplatCloud) -> &mut Vec<f32>, k: usize| {
+        let orig = field(&mut c)[k];
+        field(&mut c)[k] = orig + h;
+        let plus = loss(&c, &cam, &settings, &w);
+        field(&mut c)[k] = orig - h;
+        let minus = loss(&c, &cam, &settings, &w);
+        field(&mut c)[k] = orig;
+        ((plus - minus) / (2.0 * h as f64)) as f32
+    };
+    for k in 0..160 {
+        for (name, fd, an) in [
+            ("opacity", fd_of(|c| &mut c.opacities, k), g.opacities[k]),
+            ("mean x", fd_of(|c| &mut c.means, 3 * k), g.means[3 * k]),
+        ] {
+            let err = (fd - an).abs() / (0.02 * scale + 0.02 * fd.abs());
+            assert!(err <= 1.0, "splat {k} {name}: finite difference {fd} vs analytic {an} (largest {scale})");
+        }
+    }
+}

@@ -178,23 +178,12 @@ const AHEAD: usize = 16;
 /// Levels larger than this are prefetched (smaller ones stay in the cache anyway).
 const PREFETCH_ABOVE_BYTES: usize = 256 << 10;
 
-/// Asks the cache for the table rows of 8 corners; a hint only (no effect on results).
+/// Asks the cache for the table rows of 8 corners.
 #[inline(always)]
 fn prefetch_rows(table: &[f32], features: usize, corners: &[(usize, f32); 8]) {
-    #[cfg(target_arch = "x86_64")]
     for &(row, _) in corners {
-        // `wrapping_add` keeps this safe for any row: prefetching never faults, and the row
-        // is in the table anyway.
-        let p = table.as_ptr().wrapping_add(row * features);
-        #[allow(unsafe_code)]
-        // SAFETY: `_mm_prefetch` needs SSE, which every x86-64 CPU has (it is in the target's
-        // baseline); a prefetch reads nothing the program sees and cannot fault.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast())
-        };
+        lucid_scene::prefetch::prefetch(table, row * features);
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (table, features, corners);
 }
 
 impl HashGridLayout {
@@ -208,11 +197,9 @@ impl HashGridLayout {
         let (f, width) = (self.features, self.output_dim());
         assert_eq!(table.len(), self.entries * f, "table has the wrong size");
         assert_eq!(out.len(), positions.len() / 3 * width, "output has the wrong size");
-        out.par_chunks_mut(CHUNK * width).zip(positions.par_chunks(CHUNK * 3)).for_each(|(out, pos)| {
-            for (o, p) in out.chunks_exact_mut(width).zip(pos.chunks_exact(3)) {
-                self.encode_point([p[0], p[1], p[2]], table, o);
-            }
-        });
+        out.par_chunks_mut(CHUNK * width)
+            .zip(positions.par_chunks(CHUNK * 3))
+            .for_each(|(out, pos)| self.encode_chunk(pos, table, out, width));
     }
 
     /// Encodes one point into `out` (`L·F` values), serially: for callers that already run
