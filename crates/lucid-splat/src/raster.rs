@@ -192,6 +192,10 @@ pub struct PixelState {
     pub depth: Vec<f32>,
     /// Splat-pixel blends performed (the rasterizer's unit of work, for benchmarks).
     pub blends: u64,
+    /// Per (tile, splat) pair, in the order of [`TileBins::ids`], whether the splat blended
+    /// into any pixel of the tile. The others (a box corner the footprint does not reach,
+    /// pixels already stopped) have a zero gradient, and the backward skips them.
+    pub blended_pairs: Vec<bool>,
 }
 
 /// The image pixels of tile `t`: `(index in the tile, index in the image)`.
@@ -238,6 +242,7 @@ pub fn rasterize(
                     }
                     let mut blends = 0u64;
                     let list = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
+                    let mut blended_pairs = vec![false; list.len()];
                     for &i in &list[..list.len().min(PREFETCH_AHEAD)] {
                         prefetch(splats, i as usize);
                     }
@@ -271,12 +276,13 @@ pub fn rasterize(
                                     },
                                 );
                                 blends += blended as u64;
+                                blended_pairs[j] |= blended > 0;
                                 n_done += stopped as usize;
                                 live[o / LANES] -= stopped;
                             }
                         }
                     }
-                    (trans, rgb, last, depth, blends)
+                    (trans, rgb, last, depth, blends, blended_pairs)
                 },
             )
         })
@@ -287,9 +293,11 @@ pub fn rasterize(
         n_contrib: vec![0; width * height],
         depth: vec![0.0; width * height],
         blends: 0,
+        blended_pairs: Vec::with_capacity(bins.pairs()),
     };
-    for (t, (trans, rgb, last, depth, blends)) in tiles.iter().enumerate() {
+    for (t, (trans, rgb, last, depth, blends, blended_pairs)) in tiles.iter().enumerate() {
         state.blends += blends;
+        state.blended_pairs.extend_from_slice(blended_pairs);
         for (k, idx) in tile_pixels(t, bins, width, height) {
             for c in 0..3 {
                 image[4 * idx + c] = rgb[c][k] + trans[k] * background[c];
@@ -385,6 +393,7 @@ pub fn rasterize_backward(
             #[inline(always)]
             || {
                 let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
+                let blended_pairs = &state.blended_pairs[bins.offsets[t]..bins.offsets[t + 1]];
                 let mut trans = [0.0f32; TILE_PIXELS];
                 let mut t_final = [0.0f32; TILE_PIXELS];
                 let mut n_contrib = [0u32; TILE_PIXELS];
@@ -414,12 +423,15 @@ pub fn rasterize_backward(
                     let end = (start + GATHER).min(max_contrib);
                     gather(splats, &ids[start..end], tx, ty, &mut block);
                     for j in (start..end).rev() {
+                        if !blended_pairs[j] {
+                            continue;
+                        }
                         let ts = &block[j - start];
                         let lanes_of = &ts.lanes;
                         let mut acc = GradLanes::default();
                         let [x0, x1, y0, y1] = ts.rect.map(usize::from);
-                        for ly in y0..y1 {
-                            if j as u32 >= row_contrib[ly] {
+                        for (ly, &contrib) in row_contrib.iter().enumerate().take(y1).skip(y0) {
+                            if j as u32 >= contrib {
                                 continue;
                             }
                             for (o, run) in runs(tx, ty, ly, x0, x1) {
