@@ -16,6 +16,7 @@ pub mod evaluation;
 pub mod prefetch;
 pub mod ray;
 pub mod sampling;
+pub mod simd;
 
 pub use camera::{Camera, Intrinsics, PinholeCamera, ThinLensCamera, look_at};
 pub use dataset::{Dataset, DatasetError, Frame, FrameExtras, Split, SplitFrames};

@@ -20,7 +20,6 @@ pub mod project;
 pub mod raster;
 pub mod render;
 pub mod sh;
-pub mod simd;
 pub mod trainer;
 pub mod view;
 

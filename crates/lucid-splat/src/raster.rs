@@ -12,7 +12,7 @@ use lucid_scene::prefetch::prefetch;
 use rayon::prelude::*;
 
 use crate::blend::{BackwardRun, ForwardRun, GradLanes, LANES, Run, SplatLanes, backward_run, forward_run};
-use crate::simd::wide;
+use lucid_scene::simd::wide;
 
 use crate::project::{ProjectedGrad, ProjectedSplat};
 

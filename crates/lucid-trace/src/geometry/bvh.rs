@@ -1,5 +1,5 @@
 //! A bounding volume hierarchy built with the binned surface-area heuristic (Wald 2007),
-//! then collapsed to four children per node for traversal ([`super::wide`]). Written by hand:
+//! then collapsed to eight children per node for traversal ([`super::wide`]). Written by hand:
 //! the crates that exist either own the primitive type or lack any-hit queries for shadow
 //! rays, and this is ~200 lines.
 
@@ -147,8 +147,8 @@ impl Bvh {
     /// The nearest intersection with `t` in `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Intersection> {
         let (t, u, v, i) = self.wide.closest(ray, t_min, t_max)?;
-        Some(match self.primitives[i as usize].shape {
-            Shape::Triangle { p, n, uv } => triangle_interaction(&p, n, uv, self.frames[i as usize], t, u, v, i),
+        Some(match &self.primitives[i as usize].shape {
+            Shape::Triangle { p, n, uv } => triangle_interaction(p, *n, *uv, self.frames[i as usize], t, u, v, i),
             sphere => sphere.interaction(ray, t, u, v, i),
         })
     }
@@ -295,7 +295,7 @@ mod tests {
     #[test]
     fn bvh_agrees_with_brute_force_on_triangles_and_spheres() {
         // Counts that leave partly filled packets and leaves holding both kinds of shape.
-        for (triangles, spheres) in [(1, 0), (3, 0), (7, 2), (333, 50), (0, 500)] {
+        for (triangles, spheres) in [(1, 0), (3, 0), (7, 2), (12, 3), (40, 0), (333, 50), (0, 500)] {
             let mut prims = random_triangles(triangles);
             prims.extend(random_spheres(spheres));
             let bvh = Bvh::new(prims.clone());

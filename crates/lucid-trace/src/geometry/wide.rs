@@ -1,59 +1,80 @@
-//! The BVH collapsed to four children per node (a QBVH, Dammertz et al. 2008), with the
-//! children's boxes and the leaves' triangles stored four to a SIMD register (glam's `Vec4`:
-//! SSE on x86-64, NEON on ARM), so one ray tests four boxes or four triangles with one set of
-//! instructions. Closest-hit queries visit children nearest first and skip any whose entry
-//! distance is beyond the best hit so far. Written by hand for the reason `bvh.rs` gives.
+//! The BVH collapsed to eight children per node (an 8-wide BVH, after the QBVH of Dammertz et
+//! al. 2008), with the children's boxes and the leaves' triangles stored eight to a row of
+//! lanes, so one ray tests eight boxes or eight triangles with one set of vector instructions:
+//! the lane loops below are plain Rust that the compiler vectorises, and both queries run
+//! compiled for AVX2 where the CPU has it ([`wide`]: one 8-wide register per row; two SSE
+//! registers otherwise, with the same numbers). A subtree of at most eight triangles becomes
+//! one leaf packet, so a small scene is a root and a few packets. Closest-hit queries visit
+//! children nearest first and skip any whose entry distance is beyond the best hit so far.
+//! Written by hand for the reason `bvh.rs` gives.
 
 use std::mem::MaybeUninit;
 
-use glam::{BVec4A, Vec3A, Vec4};
+use glam::Vec3A;
 use lucid_scene::Ray;
+use lucid_scene::simd::wide;
 
 use super::bvh::{CompactShape, Node};
 
+/// Lanes per node and per triangle packet.
+const W: usize = 8;
 /// Marks a child reference as a leaf (the rest is the leaf's index).
 const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty, so no ray enters it).
 const EMPTY: u32 = u32::MAX;
-/// Traversal stack entries: each level of the tree leaves at most three more on the stack, so
-/// this serves 85 levels (a tree of 4⁸⁵ leaves; indexing past it panics, it cannot corrupt).
+/// Traversal stack entries: each level of the tree leaves at most seven more on the stack, so
+/// this serves 36 levels (a tree of 8³⁶ leaves; indexing past it panics, it cannot corrupt).
 const STACK: usize = 256;
 
-/// Four children: `bounds[0]` their minimum corners, `bounds[1]` their maximum corners, one
-/// register per axis.
+/// Eight children: `bounds[0]` their minimum corners, `bounds[1]` their maximum corners, one
+/// row of lanes per axis.
 #[derive(Clone, Copy, Debug)]
-struct Node4 {
-    bounds: [[Vec4; 3]; 2],
-    children: [u32; 4],
+#[repr(C, align(32))]
+struct Node8 {
+    bounds: [[[f32; W]; 3]; 2],
+    children: [u32; W],
 }
 
-/// Four triangles as a vertex and two edges per lane, one register per coordinate.
+/// Eight triangles as a vertex and two edges per lane, one row per coordinate.
 #[derive(Clone, Copy, Debug)]
-struct Triangle4 {
-    p0: [Vec4; 3],
-    e1: [Vec4; 3],
-    e2: [Vec4; 3],
+#[repr(C, align(32))]
+struct Triangle8 {
+    p0: [[f32; W]; 3],
+    e1: [[f32; W]; 3],
+    e2: [[f32; W]; 3],
     /// Each lane's primitive; lanes past the leaf's last triangle repeat it (the same hit twice
     /// changes nothing).
-    primitive: [u32; 4],
+    primitive: [u32; W],
 }
 
-/// A leaf's triangles (packets of four) and spheres, as ranges of [`WideBvh`]'s arrays.
+/// A leaf's triangles (packets of eight) and spheres, as ranges of [`WideBvh`]'s arrays.
 #[derive(Clone, Copy, Debug)]
 struct Leaf {
     packets: (u32, u32),
     spheres: (u32, u32),
 }
 
+/// `a > b ? a : b` and its twin: the x86 `max`/`min` instructions, where `f32::max` would add
+/// NaN handling to every lane (no NaN reaches them: see [`RayQuery::boxes`]).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
 /// A ray prepared for box and packet tests.
 struct RayQuery {
-    origin: [Vec4; 3],
-    dir: [Vec4; 3],
-    inv_dir: [Vec4; 3],
+    o: [f32; 3],
+    d: [f32; 3],
+    inv: [f32; 3],
     /// Per axis, 1 where the direction is negative: which box corner the ray enters by.
     sign: [usize; 3],
-    o: Vec3A,
-    d: Vec3A,
+    origin: Vec3A,
+    direction: Vec3A,
 }
 
 impl RayQuery {
@@ -61,61 +82,77 @@ impl RayQuery {
     fn new(ray: &Ray) -> Self {
         let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
         let inv = d.recip();
-        let splat = |v: Vec3A| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
         Self {
-            origin: splat(o),
-            dir: splat(d),
-            inv_dir: splat(inv),
+            o: o.to_array(),
+            d: d.to_array(),
+            inv: inv.to_array(),
             sign: [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize],
-            o,
-            d,
+            origin: o,
+            direction: d,
         }
     }
 
-    /// Which of the node's four boxes the ray meets within `(t_min, t_max)`, as a bit mask, and
-    /// the entry distances.
+    /// Which of the node's eight boxes the ray meets within `(t_min, t_max)`, as a bit mask,
+    /// and the entry distances. An empty slot's ±∞ bounds give `near = +∞ > far`; a zero
+    /// direction component gives ±∞ slabs, and a NaN (origin on the slab plane) fails the
+    /// comparison like the 4-wide SSE test did.
     #[inline(always)]
-    fn boxes(&self, node: &Node4, t_min: f32, t_max: f32) -> (u32, Vec4) {
-        let slab = |corner: usize, a: usize| (node.bounds[corner][a] - self.origin[a]) * self.inv_dir[a];
+    fn boxes(&self, node: &Node8, t_min: f32, t_max: f32) -> (u32, [f32; W]) {
         let [sx, sy, sz] = self.sign;
-        let near = slab(sx, 0).max(slab(sy, 1)).max(slab(sz, 2).max(Vec4::splat(t_min)));
-        let far = slab(1 - sx, 0).min(slab(1 - sy, 1)).min(slab(1 - sz, 2).min(Vec4::splat(t_max)));
-        (near.cmple(far).bitmask(), near)
+        let b = &node.bounds;
+        let mut near = [0f32; W];
+        let mut mask = 0u32;
+        for l in 0..W {
+            let slab = |corner: usize, a: usize| (b[corner][a][l] - self.o[a]) * self.inv[a];
+            let n = max(max(slab(sx, 0), slab(sy, 1)), max(slab(sz, 2), t_min));
+            let f = min(min(slab(1 - sx, 0), slab(1 - sy, 1)), min(slab(1 - sz, 2), t_max));
+            near[l] = n;
+            mask |= ((n <= f) as u32) << l;
+        }
+        (mask, near)
     }
 
-    /// Möller–Trumbore on four triangles: which lanes are hit within `(t_min, t_max)`, with
-    /// their `t` and barycentrics. The same operations in the same order as
-    /// [`CompactShape::intersect`], so both give the same numbers.
+    /// Möller–Trumbore on eight triangles: which lanes are hit within `(t_min, t_max)` (a bit
+    /// mask), with their `t` (+∞ where missed) and barycentrics. The same operations in the
+    /// same order as [`CompactShape::intersect`], so both give the same numbers.
     #[inline(always)]
-    fn triangles(&self, tri: &Triangle4, t_min: f32, t_max: f32) -> (BVec4A, Vec4, Vec4, Vec4) {
-        let [dx, dy, dz] = self.dir;
-        let [e1x, e1y, e1z] = tri.e1;
-        let [e2x, e2y, e2z] = tri.e2;
-        let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
-        let det = e1x * pvx + e1y * pvy + e1z * pvz;
-        let inv = Vec4::ONE / det;
-        let (tvx, tvy, tvz) = (self.origin[0] - tri.p0[0], self.origin[1] - tri.p0[1], self.origin[2] - tri.p0[2]);
-        let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
-        let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
-        let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
-        let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
-        let hit = det.abs().cmpge(Vec4::splat(1e-12))
-            & u.cmpge(Vec4::ZERO)
-            & u.cmple(Vec4::ONE)
-            & v.cmpge(Vec4::ZERO)
-            & (u + v).cmple(Vec4::ONE)
-            & t.cmpgt(Vec4::splat(t_min))
-            & t.cmplt(Vec4::splat(t_max));
-        (hit, t, u, v)
+    fn triangles(&self, tri: &Triangle8, t_min: f32, t_max: f32) -> (u32, [f32; W], [f32; W], [f32; W]) {
+        let ([dx, dy, dz], [ox, oy, oz]) = (self.d, self.o);
+        let (mut ts, mut us, mut vs) = ([0f32; W], [0f32; W], [0f32; W]);
+        let mut mask = 0u32;
+        for l in 0..W {
+            let (e1x, e1y, e1z) = (tri.e1[0][l], tri.e1[1][l], tri.e1[2][l]);
+            let (e2x, e2y, e2z) = (tri.e2[0][l], tri.e2[1][l], tri.e2[2][l]);
+            let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
+            let det = e1x * pvx + e1y * pvy + e1z * pvz;
+            let inv = 1.0 / det;
+            let (tvx, tvy, tvz) = (ox - tri.p0[0][l], oy - tri.p0[1][l], oz - tri.p0[2][l]);
+            let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
+            let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
+            let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
+            let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
+            let hit = (det.abs() >= 1e-12)
+                & (u >= 0.0)
+                & (u <= 1.0)
+                & (v >= 0.0)
+                & (u + v <= 1.0)
+                & (t > t_min)
+                & (t < t_max);
+            ts[l] = if hit { t } else { f32::INFINITY };
+            us[l] = u;
+            vs[l] = v;
+            mask |= (hit as u32) << l;
+        }
+        (mask, ts, us, vs)
     }
 }
 
-/// The 4-wide hierarchy.
+/// The 8-wide hierarchy.
 #[derive(Clone, Debug)]
 pub(super) struct WideBvh {
-    nodes: Vec<Node4>,
+    nodes: Vec<Node8>,
     leaves: Vec<Leaf>,
-    packets: Vec<Triangle4>,
+    packets: Vec<Triangle8>,
     spheres: Vec<(u32, CompactShape)>,
     root: u32,
 }
@@ -127,20 +164,23 @@ impl WideBvh {
         let mut wide =
             Self { nodes: Vec::new(), leaves: Vec::new(), packets: Vec::new(), spheres: Vec::new(), root: EMPTY };
         if !nodes.is_empty() {
-            wide.root = wide.collapse(nodes, shapes, 0);
+            wide.root = wide.collapse(nodes, &spans(nodes), shapes, 0);
         }
         wide
     }
 
-    fn collapse(&mut self, nodes: &[Node], shapes: &[CompactShape], index: u32) -> u32 {
-        let node = &nodes[index as usize];
-        if node.count > 0 {
-            return self.leaf(shapes, node.offset, node.count as u32);
+    fn collapse(&mut self, nodes: &[Node], spans: &[(u32, u32)], shapes: &[CompactShape], index: u32) -> u32 {
+        let (first, count) = spans[index as usize];
+        // A leaf, or a subtree small enough for one packet (its primitives are contiguous).
+        let packet = |i: u32| nodes[i as usize].count > 0 || spans[i as usize].1 as usize <= W;
+        if packet(index) {
+            return self.leaf(shapes, first, count);
         }
-        // Open the largest interior child until there are four.
+        // Open the largest child that is no packet until there are eight.
+        let node = &nodes[index as usize];
         let mut kids = vec![index + 1, node.offset];
-        while kids.len() < 4 {
-            let Some(k) = (0..kids.len()).filter(|&k| nodes[kids[k] as usize].count == 0).max_by(|&a, &b| {
+        while kids.len() < W {
+            let Some(k) = (0..kids.len()).filter(|&k| !packet(kids[k])).max_by(|&a, &b| {
                 nodes[kids[a] as usize].bounds.area().total_cmp(&nodes[kids[b] as usize].bounds.area())
             }) else {
                 break;
@@ -149,10 +189,10 @@ impl WideBvh {
             kids.extend([open + 1, nodes[open as usize].offset]);
         }
         let slot = self.nodes.len();
-        self.nodes.push(Node4 { bounds: [[Vec4::INFINITY; 3], [Vec4::NEG_INFINITY; 3]], children: [EMPTY; 4] });
+        self.nodes.push(Node8 { bounds: [[[f32::INFINITY; W]; 3], [[f32::NEG_INFINITY; W]; 3]], children: [EMPTY; W] });
         for (lane, &kid) in kids.iter().enumerate() {
             let b = nodes[kid as usize].bounds;
-            let child = self.collapse(nodes, shapes, kid);
+            let child = self.collapse(nodes, spans, shapes, kid);
             let n = &mut self.nodes[slot];
             for a in 0..3 {
                 n.bounds[0][a][lane] = b.min[a];
@@ -173,13 +213,13 @@ impl WideBvh {
                 sphere @ CompactShape::Sphere { .. } => self.spheres.push((i, sphere)),
             }
         }
-        for chunk in triangles.chunks(4) {
+        for chunk in triangles.chunks(W) {
             let lane = |l: usize| chunk[l.min(chunk.len() - 1)];
-            let coord = |v: usize, a: usize| Vec4::from_array(std::array::from_fn(|l| lane(l).1[v][a]));
-            self.packets.push(Triangle4 {
-                p0: std::array::from_fn(|a| coord(0, a)),
-                e1: std::array::from_fn(|a| coord(1, a)),
-                e2: std::array::from_fn(|a| coord(2, a)),
+            let coord = |v: usize| std::array::from_fn(|a| std::array::from_fn(|l| lane(l).1[v][a]));
+            self.packets.push(Triangle8 {
+                p0: coord(0),
+                e1: coord(1),
+                e2: coord(2),
                 primitive: std::array::from_fn(|l| lane(l).0),
             });
         }
@@ -193,6 +233,23 @@ impl WideBvh {
     /// The nearest hit within `(t_min, t_max)`: `(t, u, v, primitive)`.
     #[inline]
     pub(super) fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32, u32)> {
+        wide(
+            #[inline(always)]
+            || self.closest_in(ray, t_min, t_max),
+        )
+    }
+
+    /// Whether anything is hit within `(t_min, t_max)`.
+    #[inline]
+    pub(super) fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        wide(
+            #[inline(always)]
+            || self.occluded_in(ray, t_min, t_max),
+        )
+    }
+
+    #[inline(always)]
+    fn closest_in(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32, u32)> {
         if self.root == EMPTY {
             return None;
         }
@@ -209,16 +266,15 @@ impl WideBvh {
                 let leaf = &self.leaves[(node & !LEAF) as usize];
                 for tri in &self.packets[range(leaf.packets)] {
                     let (hit, t, u, v) = q.triangles(tri, t_min, closest);
-                    if hit.any() {
-                        let t = Vec4::select(hit, t, Vec4::INFINITY);
-                        let nearest = t.min_element();
-                        let lane = t.cmpeq(Vec4::splat(nearest)).bitmask().trailing_zeros() as usize;
+                    if hit != 0 {
+                        let nearest = t.iter().fold(f32::INFINITY, |m, &x| min(m, x));
+                        let lane = (0..W).find(|&l| t[l] == nearest).unwrap_or(0);
                         closest = nearest;
                         best = Some((nearest, u[lane], v[lane], tri.primitive[lane]));
                     }
                 }
                 for (i, sphere) in &self.spheres[range(leaf.spheres)] {
-                    if let Some((t, u, v)) = sphere.intersect(q.o, q.d, t_min, closest) {
+                    if let Some((t, u, v)) = sphere.intersect(q.origin, q.direction, t_min, closest) {
                         closest = t;
                         best = Some((t, u, v, *i));
                     }
@@ -228,7 +284,7 @@ impl WideBvh {
             let n = &self.nodes[node as usize];
             let (mut mask, entries) = q.boxes(n, t_min, closest);
             // Push the far children first so that the nearest is visited next.
-            let mut hits = [(0u32, 0f32); 4];
+            let mut hits = [(0u32, 0f32); W];
             let mut k = 0;
             while mask != 0 {
                 let lane = mask.trailing_zeros() as usize;
@@ -248,9 +304,8 @@ impl WideBvh {
         best
     }
 
-    /// Whether anything is hit within `(t_min, t_max)`.
-    #[inline]
-    pub(super) fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    #[inline(always)]
+    fn occluded_in(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         if self.root == EMPTY {
             return false;
         }
@@ -260,10 +315,10 @@ impl WideBvh {
         while let Some(node) = stack.pop() {
             if node & LEAF != 0 {
                 let leaf = &self.leaves[(node & !LEAF) as usize];
-                if self.packets[range(leaf.packets)].iter().any(|tri| q.triangles(tri, t_min, t_max).0.any())
+                if self.packets[range(leaf.packets)].iter().any(|tri| q.triangles(tri, t_min, t_max).0 != 0)
                     || self.spheres[range(leaf.spheres)]
                         .iter()
-                        .any(|(_, s)| s.intersect(q.o, q.d, t_min, t_max).is_some())
+                        .any(|(_, s)| s.intersect(q.origin, q.direction, t_min, t_max).is_some())
                 {
                     return true;
                 }
@@ -279,6 +334,22 @@ impl WideBvh {
         }
         false
     }
+}
+
+/// The primitives under each binary node, `(first, count)`: contiguous, as the builder
+/// partitions them in place. Children come after their parent, so one backward pass fills it.
+fn spans(nodes: &[Node]) -> Vec<(u32, u32)> {
+    let mut spans = vec![(0, 0); nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let node = &nodes[i];
+        spans[i] = if node.count > 0 {
+            (node.offset, node.count as u32)
+        } else {
+            let ((first, left), (_, right)) = (spans[i + 1], spans[node.offset as usize]);
+            (first, left + right)
+        };
+    }
+    spans
 }
 
 fn range((first, count): (u32, u32)) -> std::ops::Range<usize> {

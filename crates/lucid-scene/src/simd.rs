@@ -1,0 +1,27 @@
+//! Wider vectors where the CPU has them, decided at run time.
+//!
+//! The hot kernels (the splat blend loops, the path tracer's BVH traversal) are written as
+//! plain lane loops or glam vector code that the compiler vectorises; built for the baseline
+//! x86-64 target they get 4-wide SSE. [`wide`] runs a closure compiled a second time for AVX2
+//! (8-wide, three-operand instructions) when the CPU supports it, so one binary is fast on
+//! current CPUs and still runs on old ones. Both builds do the same per-lane arithmetic (no
+//! fused multiply-adds are enabled), so results are bit-identical either way. Whatever the
+//! closure calls must be inlined into it (`#[inline(always)]`) to be compiled for AVX2 too.
+
+/// Calls `f`, compiled for AVX2 if this CPU has it.
+#[inline(always)]
+pub fn wide<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // An AVX2 function may only run on a CPU with AVX2, which the line above checked.
+        #[allow(unsafe_code)]
+        return unsafe { with_avx2(f) };
+    }
+    f()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
