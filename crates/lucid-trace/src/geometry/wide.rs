@@ -116,6 +116,7 @@ impl RayQuery {
     /// mask), with their `t` (+∞ where missed) and barycentrics. The same operations in the
     /// same order as [`CompactShape::intersect`], so both give the same numbers.
     #[inline(always)]
+    #[allow(clippy::manual_range_contains)] // `&` of comparisons: no branch in the lane loop
     fn triangles(&self, tri: &Triangle8, t_min: f32, t_max: f32) -> (u32, [f32; W], [f32; W], [f32; W]) {
         let ([dx, dy, dz], [ox, oy, oz]) = (self.d, self.o);
         let (mut ts, mut us, mut vs) = ([0f32; W], [0f32; W], [0f32; W]);
