@@ -53,6 +53,23 @@ fn loss(c: &SplatCloud, cam: &SplatCamera, s: &RenderSettings, w: &[f32]) -> f64
     image.iter().zip(w).map(|(a, b)| *a as f64 * *b as f64).sum()
 }
 
+/// `∂loss/∂field[k]` by central differences with step `h`.
+fn central_difference(
+    c: &mut SplatCloud,
+    field: fn(&mut SplatCloud) -> &mut Vec<f32>,
+    k: usize,
+    h: f32,
+    (cam, settings, w): (&SplatCamera, &RenderSettings, &[f32]),
+) -> f32 {
+    let orig = field(c)[k];
+    field(c)[k] = orig + h;
+    let plus = loss(c, cam, settings, w);
+    field(c)[k] = orig - h;
+    let minus = loss(c, cam, settings, w);
+    field(c)[k] = orig;
+    ((plus - minus) / (2.0 * h as f64)) as f32
+}
+
 fn check(name: &str, field: fn(&mut SplatCloud) -> &mut Vec<f32>, grad: fn(&lucid_splat::SplatGrads) -> &Vec<f32>) {
     let cam = camera();
     // The 1/255 blend threshold and the 3σ footprint make the image jump where a pixel
@@ -69,13 +86,7 @@ fn check(name: &str, field: fn(&mut SplatCloud) -> &mut Vec<f32>, grad: fn(&luci
     let h = 2e-3;
     let mut nonzero = 0;
     for (k, &an) in analytic.iter().enumerate() {
-        let orig = field(&mut c)[k];
-        field(&mut c)[k] = orig + h;
-        let plus = loss(&c, &cam, &settings, &w);
-        field(&mut c)[k] = orig - h;
-        let minus = loss(&c, &cam, &settings, &w);
-        field(&mut c)[k] = orig;
-        let fd = ((plus - minus) / (2.0 * h as f64)) as f32;
+        let fd = central_difference(&mut c, field, k, h, (&cam, &settings, &w));
         let err = (fd - an).abs() / (0.02 * scale + 0.02 * fd.abs());
         assert!(err <= 1.0, "{name}[{k}]: finite difference {fd} vs analytic {an} (largest |grad| {scale})");
         if an.abs() > 1e-3 * scale {
@@ -154,13 +165,7 @@ fn long_tile_lists_and_stopped_pixels() {
     // order alone, whose swaps would make the image jump).
     let h = 1e-3;
     let mut fd_of = |field: fn(&mut SplatCloud) -> &mut Vec<f32>, k: usize| {
-        let orig = field(&mut c)[k];
-        field(&mut c)[k] = orig + h;
-        let plus = loss(&c, &cam, &settings, &w);
-        field(&mut c)[k] = orig - h;
-        let minus = loss(&c, &cam, &settings, &w);
-        field(&mut c)[k] = orig;
-        ((plus - minus) / (2.0 * h as f64)) as f32
+        central_difference(&mut c, field, k, h, (&cam, &settings, &w))
     };
     for k in 0..160 {
         for (name, fd, an) in [

@@ -159,6 +159,46 @@ impl LevelLayout {
     }
 }
 
+impl LevelLayout {
+    /// Calls `visit(i, corners, rows)` for each point `i` of `positions` (`n×3`) in order, with its
+    /// corners' rows less `base` (a level's segment of a table starts at `base`). On a large
+    /// level each point's rows in `rows` are prefetched [`AHEAD`] points before `visit` gets
+    /// them, so the cache misses of consecutive points overlap.
+    #[inline(always)]
+    fn for_each_prefetched<R: AsRef<[f32]>>(
+        &self,
+        positions: &[f32],
+        rows: &mut R,
+        features: usize,
+        base: usize,
+        mut visit: impl FnMut(usize, [(usize, f32); 8], &mut R),
+    ) {
+        let n = positions.len() / 3;
+        let corners = |i: usize| {
+            self.corners([positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]).map(|(r, w)| (r - base, w))
+        };
+        let far = self.size * features * std::mem::size_of::<f32>() > PREFETCH_ABOVE_BYTES;
+        let mut ring = [[(0usize, 0f32); 8]; AHEAD];
+        for (i, slot) in ring.iter_mut().enumerate().take(n) {
+            *slot = corners(i);
+            if far {
+                prefetch_rows(rows.as_ref(), features, slot);
+            }
+        }
+        for i in 0..n {
+            let current = ring[i % AHEAD];
+            if i + AHEAD < n {
+                let next = corners(i + AHEAD);
+                if far {
+                    prefetch_rows(rows.as_ref(), features, &next);
+                }
+                ring[i % AHEAD] = next;
+            }
+            visit(i, current, rows);
+        }
+    }
+}
+
 /// The levels of a configured encoding and the table they share.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HashGridLayout {
@@ -243,25 +283,8 @@ impl HashGridLayout {
         let f = self.features;
         let n = positions.len() / 3;
         assert!(n == 0 || act.len() >= (n - 1) * stride + self.output_dim(), "activation rows too short");
-        let point = |i: usize| [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]];
         for (l, level) in self.levels.iter().enumerate() {
-            let far = level.size * f * std::mem::size_of::<f32>() > PREFETCH_ABOVE_BYTES;
-            let mut ring = [[(0usize, 0f32); 8]; AHEAD];
-            for (i, slot) in ring.iter_mut().enumerate().take(n) {
-                *slot = level.corners(point(i));
-                if far {
-                    prefetch_rows(table, f, slot);
-                }
-            }
-            for i in 0..n {
-                let corners = ring[i % AHEAD];
-                if i + AHEAD < n {
-                    let next = level.corners(point(i + AHEAD));
-                    if far {
-                        prefetch_rows(table, f, &next);
-                    }
-                    ring[i % AHEAD] = next;
-                }
+            level.for_each_prefetched(positions, &mut { table }, f, 0, |i, corners, table| {
                 let out = &mut act[i * stride + l * f..i * stride + (l + 1) * f];
                 if f == 2 {
                     let (mut a0, mut a1) = (0.0, 0.0);
@@ -280,7 +303,7 @@ impl HashGridLayout {
                         }
                     }
                 }
-            }
+            });
         }
     }
 
@@ -297,35 +320,16 @@ impl HashGridLayout {
             segments.push(seg);
             rest = tail;
         }
-        let n = positions.len() / 3;
-        let point = |i: usize| [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]];
         segments.into_par_iter().zip(self.levels.par_iter().enumerate()).for_each(|(seg, (l, level))| {
-            // Rows relative to the level's segment; prefetched ahead as in `encode_chunk`.
-            let local = |i: usize| level.corners(point(i)).map(|(row, w)| (row - level.offset, w));
-            let far = level.size * f * std::mem::size_of::<f32>() > PREFETCH_ABOVE_BYTES;
-            let mut ring = [[(0usize, 0f32); 8]; AHEAD];
-            for (i, slot) in ring.iter_mut().enumerate().take(n) {
-                *slot = local(i);
-                if far {
-                    prefetch_rows(seg, f, slot);
-                }
-            }
-            for i in 0..n {
-                let corners = ring[i % AHEAD];
-                if i + AHEAD < n {
-                    let next = local(i + AHEAD);
-                    if far {
-                        prefetch_rows(seg, f, &next);
-                    }
-                    ring[i % AHEAD] = next;
-                }
+            // Rows relative to the level's segment.
+            level.for_each_prefetched(positions, &mut { seg }, f, level.offset, |i, corners, seg| {
                 let g = &grad_out[i * width + l * f..i * width + (l + 1) * f];
                 for (row, w) in corners {
                     for (dst, gv) in seg[row * f..(row + 1) * f].iter_mut().zip(g) {
                         *dst += w * gv;
                     }
                 }
-            }
+            });
         });
     }
 }
