@@ -3,7 +3,8 @@
 //! to front.
 //!
 //! Inside a tile the loops run Gaussian-outer, pixel-inner: a splat is loaded once and
-//! blended into all 256 pixels (a contiguous copy of the tile's splats keeps them in cache),
+//! blended into all 256 pixels (its record prefetched a few splats ahead; the backward copies
+//! the tile's splats into blocks first),
 //! and in the backward its gradient is summed over the tile's pixels in registers and stored
 //! once per (tile, splat) pair. Those per-pair gradients are then summed per splat in a
 //! fixed order, so results do not depend on the thread count.
@@ -166,16 +167,25 @@ struct TileSplat {
 /// it, while this loop of loads alone keeps many misses in flight.
 #[inline(always)]
 fn gather(splats: &[ProjectedSplat], ids: &[u32], tx: usize, ty: usize, out: &mut [TileSplat; GATHER]) {
-    for &i in &ids[..ids.len().min(PREFETCH_AHEAD)] {
-        prefetch(splats, i as usize);
-    }
     for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
-        if let Some(&ahead) = ids.get(k + PREFETCH_AHEAD) {
-            prefetch(splats, ahead as usize);
-        }
+        prefetch_ahead(splats, ids, k);
         let s = &splats[i as usize];
         let (x0, x1, y0, y1) = local_rect(s, tx, ty);
         *slot = TileSplat { lanes: SplatLanes::new(s), rect: [x0 as u8, x1 as u8, y0 as u8, y1 as u8] };
+    }
+}
+
+/// Before `splats[ids[k]]` is read, asks the cache for the record [`PREFETCH_AHEAD`] entries
+/// further down the list (and, at the first entry, for the ones before that).
+#[inline(always)]
+fn prefetch_ahead(splats: &[ProjectedSplat], ids: &[u32], k: usize) {
+    if k == 0 {
+        for &i in &ids[..ids.len().min(PREFETCH_AHEAD)] {
+            prefetch(splats, i as usize);
+        }
+    }
+    if let Some(&ahead) = ids.get(k + PREFETCH_AHEAD) {
+        prefetch(splats, ahead as usize);
     }
 }
 
@@ -243,16 +253,11 @@ pub fn rasterize(
                     let mut blends = 0u64;
                     let list = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
                     let mut blended_pairs = vec![false; list.len()];
-                    for &i in &list[..list.len().min(PREFETCH_AHEAD)] {
-                        prefetch(splats, i as usize);
-                    }
                     for (j, &i) in list.iter().enumerate() {
                         if n_done == TILE_PIXELS {
                             break;
                         }
-                        if let Some(&ahead) = list.get(j + PREFETCH_AHEAD) {
-                            prefetch(splats, ahead as usize);
-                        }
+                        prefetch_ahead(splats, list, j);
                         let s = &splats[i as usize];
                         let lanes_of = SplatLanes::new(s);
                         let (x0, x1, y0, y1) = local_rect(s, tx, ty);

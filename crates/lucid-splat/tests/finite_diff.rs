@@ -70,6 +70,13 @@ fn central_difference(
     ((plus - minus) / (2.0 * h as f64)) as f32
 }
 
+/// The analytic gradient agrees with the finite difference to 2 % of itself plus 2 % of the
+/// largest gradient of the kind (`scale`).
+fn assert_close(what: &str, fd: f32, an: f32, scale: f32) {
+    let err = (fd - an).abs() / (0.02 * scale + 0.02 * fd.abs());
+    assert!(err <= 1.0, "{what}: finite difference {fd} vs analytic {an} (largest |grad| {scale})");
+}
+
 fn check(name: &str, field: fn(&mut SplatCloud) -> &mut Vec<f32>, grad: fn(&lucid_splat::SplatGrads) -> &Vec<f32>) {
     let cam = camera();
     // The 1/255 blend threshold and the 3σ footprint make the image jump where a pixel
@@ -87,8 +94,7 @@ fn check(name: &str, field: fn(&mut SplatCloud) -> &mut Vec<f32>, grad: fn(&luci
     let mut nonzero = 0;
     for (k, &an) in analytic.iter().enumerate() {
         let fd = central_difference(&mut c, field, k, h, (&cam, &settings, &w));
-        let err = (fd - an).abs() / (0.02 * scale + 0.02 * fd.abs());
-        assert!(err <= 1.0, "{name}[{k}]: finite difference {fd} vs analytic {an} (largest |grad| {scale})");
+        assert_close(&format!("{name}[{k}]"), fd, an, scale);
         if an.abs() > 1e-3 * scale {
             nonzero += 1;
         }
@@ -172,8 +178,7 @@ fn long_tile_lists_and_stopped_pixels() {
             ("opacity", fd_of(|c| &mut c.opacities, k), g.opacities[k]),
             ("mean x", fd_of(|c| &mut c.means, 3 * k), g.means[3 * k]),
         ] {
-            let err = (fd - an).abs() / (0.02 * scale + 0.02 * fd.abs());
-            assert!(err <= 1.0, "splat {k} {name}: finite difference {fd} vs analytic {an} (largest {scale})");
+            assert_close(&format!("splat {k} {name}"), fd, an, scale);
         }
     }
 }
