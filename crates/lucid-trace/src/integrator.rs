@@ -71,15 +71,16 @@ pub struct PathSample {
 }
 
 /// A local shading frame around a normal.
-struct Frame {
-    t: Vec3,
-    b: Vec3,
-    n: Vec3,
+#[derive(Clone, Copy)]
+pub(crate) struct Frame {
+    pub(crate) t: Vec3,
+    pub(crate) b: Vec3,
+    pub(crate) n: Vec3,
 }
 
 impl Frame {
     /// The frame around `n` whose x axis is `tangent` made orthogonal to it.
-    fn new(n: Vec3, tangent: Vec3) -> Self {
+    pub(crate) fn new(n: Vec3, tangent: Vec3) -> Self {
         match (tangent - n * n.dot(tangent)).try_normalize() {
             Some(t) => Self { t, b: n.cross(t), n },
             None => {
@@ -88,10 +89,10 @@ impl Frame {
             }
         }
     }
-    fn to_local(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
-    fn to_world(&self, v: Vec3) -> Vec3 {
+    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
         v.x * self.t + v.y * self.b + v.z * self.n
     }
 }
@@ -247,7 +248,7 @@ impl PathTracer {
 
     /// MIS weight of emission reached by sampling the previous vertex's BSDF or phase
     /// function with density `prev_pdf` (`None`: a specular bounce or the camera ray).
-    fn emission_weight(&self, prev_pdf: Option<f32>, light_pdf: f32) -> f32 {
+    pub(crate) fn emission_weight(&self, prev_pdf: Option<f32>, light_pdf: f32) -> f32 {
         match (self.strategy, prev_pdf) {
             (_, None) => 1.0,
             (LightStrategy::Mis, Some(pdf)) => power_heuristic(pdf, light_pdf),
@@ -257,7 +258,7 @@ impl PathTracer {
     }
 
     /// MIS weight of a light sample whose direction the BSDF would pick with `bsdf_pdf`.
-    fn light_sample_weight(&self, delta: bool, light_pdf: f32, bsdf_pdf: f32) -> f32 {
+    pub(crate) fn light_sample_weight(&self, delta: bool, light_pdf: f32, bsdf_pdf: f32) -> f32 {
         match self.strategy {
             _ if delta => 1.0,
             LightStrategy::Mis => power_heuristic(light_pdf, bsdf_pdf),
@@ -267,7 +268,13 @@ impl PathTracer {
     }
 
     /// Picks one light uniformly and samples it from `point`: `(selection × light pdf, sample)`.
-    fn pick_light(&self, scene: &Scene, point: Vec3, light_pick: f32, rng: &mut Rng) -> Option<(f32, LightSample)> {
+    pub(crate) fn pick_light(
+        &self,
+        scene: &Scene,
+        point: Vec3,
+        light_pick: f32,
+        rng: &mut Rng,
+    ) -> Option<(f32, LightSample)> {
         if scene.lights.is_empty() || self.strategy == LightStrategy::BsdfOnly {
             return None;
         }
@@ -278,7 +285,7 @@ impl PathTracer {
 
     /// Continues the path with probability `min(max β, 0.95)` once it is long enough,
     /// dividing β by that probability to stay unbiased; false ends the path.
-    fn russian_roulette(&self, segments: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
+    pub(crate) fn russian_roulette(&self, segments: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
         if segments <= self.rr_depth {
             return true;
         }

@@ -10,6 +10,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod medium;
+pub mod packet;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -125,28 +125,13 @@ impl Light {
                 Some(LightSample { wi: *direction, li: *irradiance, pdf: 1.0, distance: f32::INFINITY, delta: true })
             }
             Light::Area { cdf, shapes, area, radiance, two_sided } => {
-                // Pick a primitive by area, reusing u.x rescaled, then a uniform point on it.
-                let target = u.x * area;
-                let k = cdf.partition_point(|&c| c <= target).min(shapes.len() - 1);
-                let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
-                let ux = ((target - lo) / (cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 0.999_999);
+                let (k, ux) = pick_by_area(cdf, *area, u.x);
                 let (p, n) = match &shapes[k] {
                     (Shape::Triangle { p, .. }, normal) => (point_on_triangle(p, Vec2::new(ux, u.y)), *normal),
                     (sphere, _) => sample_shape(sphere, Vec2::new(ux, u.y)),
                 };
-                let d = p - point;
-                let dist2 = d.length_squared();
-                let distance = dist2.sqrt();
-                if distance == 0.0 {
-                    return None;
-                }
-                let wi = d / distance;
-                let cos_light = -wi.dot(n);
-                if cos_light <= 0.0 && !*two_sided {
-                    return None;
-                }
-                let pdf = dist2 / (cos_light.abs() * area);
-                pdf.is_finite().then_some(LightSample { wi, li: *radiance, pdf, distance, delta: false })
+                let (sample, valid) = towards_area_point(point, p, n, *area, *radiance, *two_sided);
+                valid.then_some(sample)
             }
             Light::ConstantEnvironment { radiance } => Some(LightSample {
                 wi: uniform_sphere(u),
@@ -212,6 +197,38 @@ impl Light {
     }
 }
 
+/// The primitive of an area light that `u` picks by area (`cdf`: cumulative areas, `area`:
+/// their total), and `u` rescaled to a fresh uniform within that primitive's share.
+#[inline]
+pub(crate) fn pick_by_area(cdf: &[f32], area: f32, u: f32) -> (usize, f32) {
+    let target = u * area;
+    let k = cdf.partition_point(|&c| c <= target).min(cdf.len() - 1);
+    let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
+    (k, ((target - lo) / (cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 0.999_999))
+}
+
+/// The light sample from `point` towards `light_point` (normal `n`) of an area light of total
+/// area `area`, and whether it is valid (not from behind a one-sided light, finite density).
+/// Branch-free, so that a loop over the lanes of a path packet vectorises.
+#[inline(always)]
+pub(crate) fn towards_area_point(
+    point: Vec3,
+    light_point: Vec3,
+    n: Vec3,
+    area: f32,
+    radiance: Vec3,
+    two_sided: bool,
+) -> (LightSample, bool) {
+    let d = light_point - point;
+    let dist2 = d.length_squared();
+    let distance = dist2.sqrt();
+    let wi = d / distance;
+    let cos_light = -wi.dot(n);
+    let pdf = dist2 / (cos_light.abs() * area);
+    let valid = (distance != 0.0) & ((cos_light > 0.0) | two_sided) & pdf.is_finite();
+    (LightSample { wi, li: radiance, pdf, distance, delta: false }, valid)
+}
+
 /// Smoothstep between the outer and inner cone cosines.
 fn smooth_falloff(cos: f32, cos_outer: f32, cos_inner: f32) -> f32 {
     if cos >= cos_inner {
@@ -236,7 +253,8 @@ pub fn sample_shape(shape: &Shape, u: Vec2) -> (Vec3, Vec3) {
 }
 
 /// A uniformly distributed point on a triangle.
-fn point_on_triangle(p: &[Vec3; 3], u: Vec2) -> Vec3 {
+#[inline(always)]
+pub(crate) fn point_on_triangle(p: &[Vec3; 3], u: Vec2) -> Vec3 {
     let (b0, b1) = uniform_triangle(u);
     b0 * p[0] + b1 * p[1] + (1.0 - b0 - b1) * p[2]
 }

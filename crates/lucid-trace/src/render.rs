@@ -9,7 +9,8 @@ use lucid_image::Image;
 use lucid_scene::{Camera, PinholeCamera, ThinLensCamera};
 use rayon::prelude::*;
 
-use crate::integrator::PathTracer;
+use crate::integrator::{PathSample, PathTracer};
+use crate::packet::LANES;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 
@@ -115,15 +116,11 @@ fn render_pixel(
     j: usize,
     width: usize,
 ) -> ([[f32; 4]; 4], u64) {
-    let mut rng = Rng::new(settings.seed, (j * width + i) as u64);
+    let pixel = (j * width + i) as u64;
     let mut rays = 0u64;
     let (mut radiance, mut normal, mut albedo) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     let (mut alpha, mut depth) = (0.0f32, 0.0f32);
-    for _ in 0..spp {
-        let jitter = rng.uniform2();
-        let lens = rng.uniform2();
-        let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
-        let s = settings.integrator.trace(scene, ray, &mut rng);
+    let mut add = |ray: &lucid_scene::Ray, s: &PathSample| {
         rays += s.rays as u64;
         // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
         // poisoning the pixel; a finite image is part of the contract.
@@ -135,6 +132,33 @@ fn render_pixel(
             depth += s.distance * ray.direction.dot(forward);
             normal += s.normal;
             albedo += s.albedo;
+        }
+    };
+    if PathTracer::packet_supports(scene) {
+        // Each sample has its own stream, so that eight of them can be traced side by side.
+        for first in (0..spp).step_by(LANES) {
+            let count = (spp - first).min(LANES as u32) as usize;
+            let mut rngs: [Rng; LANES] =
+                std::array::from_fn(|l| Rng::new(settings.seed, pixel * spp as u64 + (first as usize + l) as u64));
+            let rays: [lucid_scene::Ray; LANES] = std::array::from_fn(|l| {
+                let rng = &mut rngs[l];
+                let jitter = rng.uniform2();
+                let lens = rng.uniform2();
+                camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens)
+            });
+            let samples = settings.integrator.trace_packet(scene, &rays, count, &mut rngs);
+            for l in 0..count {
+                add(&rays[l], &samples[l]);
+            }
+        }
+    } else {
+        let mut rng = Rng::new(settings.seed, pixel);
+        for _ in 0..spp {
+            let jitter = rng.uniform2();
+            let lens = rng.uniform2();
+            let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+            let s = settings.integrator.trace(scene, ray, &mut rng);
+            add(&ray, &s);
         }
     }
     let n = spp as f32;

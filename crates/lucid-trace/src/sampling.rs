@@ -6,6 +6,7 @@ use std::f32::consts::{FRAC_1_PI, PI, TAU};
 pub use lucid_scene::sampling::{Rng, mix};
 
 /// Cosine-weighted direction on the hemisphere around +Z (Malley's method).
+#[inline(always)]
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = lucid_scene::sampling::concentric_disk(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
@@ -29,6 +30,7 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 
 /// Uniform barycentrics `(b0, b1)` on a triangle (the square-root parametrisation).
+#[inline(always)]
 pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
     let s = u.x.sqrt();
     (1.0 - s, u.y * s)

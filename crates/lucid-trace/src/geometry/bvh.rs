@@ -10,9 +10,10 @@ use super::wide::WideBvh;
 use super::{Aabb, Intersection, Primitive, Shape, TriangleFrame, triangle_interaction};
 
 const BINS: usize = 16;
-const MAX_LEAF: usize = 4;
-/// Relative cost of one traversal step against one primitive test.
-const TRAVERSAL_COST: f32 = 1.0;
+/// The binary tree is split down to pairs: which subtrees become the 8-wide tree's triangle
+/// packets is decided when collapsing it ([`super::wide`]), where the cost of a test is per
+/// packet, not per primitive.
+const MAX_LEAF: usize = 2;
 
 /// A node of the binary tree the builder makes.
 #[derive(Clone, Copy, Debug)]
@@ -146,11 +147,26 @@ impl Bvh {
 
     /// The nearest intersection with `t` in `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Intersection> {
-        let (t, u, v, i) = self.wide.closest(ray, t_min, t_max)?;
-        Some(match &self.primitives[i as usize].shape {
-            Shape::Triangle { p, n, uv } => triangle_interaction(p, *n, *uv, self.frames[i as usize], t, u, v, i),
-            sphere => sphere.interaction(ray, t, u, v, i),
-        })
+        let (t, u, v, i) = self.closest(ray, t_min, t_max)?;
+        Some(self.interaction(ray, t, u, v, i))
+    }
+
+    /// The nearest hit with `t` in `(t_min, t_max)` as `(t, u, v, primitive)`, without its
+    /// record ([`Bvh::interaction`] makes it).
+    #[inline]
+    pub fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32, u32)> {
+        self.wide.closest(ray, t_min, t_max)
+    }
+
+    /// The full record of the hit [`Bvh::closest`] found.
+    #[inline]
+    pub fn interaction(&self, ray: &Ray, t: f32, u: f32, v: f32, primitive: u32) -> Intersection {
+        match &self.primitives[primitive as usize].shape {
+            Shape::Triangle { p, n, uv } => {
+                triangle_interaction(p, *n, *uv, self.frames[primitive as usize], t, u, v, primitive)
+            }
+            sphere => sphere.interaction(ray, t, u, v, primitive),
+        }
     }
 
     /// Whether anything blocks the ray within `(t_min, t_max)` (for shadow rays).
@@ -168,9 +184,9 @@ fn build(items: &mut [BuildItem], first: usize, nodes: &mut Vec<Node>) -> u32 {
         return index;
     }
     let centres = items.iter().fold(Aabb::EMPTY, |b, it| b.include(it.centre));
-    let Some((axis, split)) = best_split(items, &centres, &bounds) else {
+    let Some((axis, split)) = best_split(items, &centres) else {
         if items.len() <= u16::MAX as usize / 2 {
-            return index; // no split beats a leaf
+            return index; // the centres coincide: nothing to split
         }
         // Too many for a leaf: split at the median instead.
         let axis = (centres.max - centres.min).max_position();
@@ -202,8 +218,8 @@ fn bin_of(c: f32, centres: &Aabb, axis: usize) -> usize {
     (((c - centres.min[axis]) / extent * BINS as f32) as usize).min(BINS - 1)
 }
 
-/// The axis and bin boundary of the cheapest SAH split, if it is cheaper than a leaf.
-fn best_split(items: &[BuildItem], centres: &Aabb, bounds: &Aabb) -> Option<(usize, usize)> {
+/// The axis and bin boundary of the cheapest SAH split, if the centres can be split at all.
+fn best_split(items: &[BuildItem], centres: &Aabb) -> Option<(usize, usize)> {
     let mut best: Option<(f32, usize, usize)> = None;
     for axis in 0..3 {
         if centres.max[axis] - centres.min[axis] <= 0.0 {
@@ -239,10 +255,7 @@ fn best_split(items: &[BuildItem], centres: &Aabb, bounds: &Aabb) -> Option<(usi
             }
         }
     }
-    let (cost, axis, split) = best?;
-    let leaf_cost = items.len() as f32;
-    let split_cost = TRAVERSAL_COST + cost / bounds.area().max(f32::MIN_POSITIVE);
-    (split_cost < leaf_cost || items.len() > MAX_LEAF * 4).then_some((axis, split))
+    best.map(|(_, axis, split)| (axis, split))
 }
 
 fn partition(items: &mut [BuildItem], pred: impl Fn(&BuildItem) -> bool) -> usize {

@@ -1,0 +1,507 @@
+//! Eight camera paths traced in lock-step (a small wavefront). Each stage of a bounce —
+//! closest hits, surface events, light samples, shadow rays, BSDF samples — runs for every
+//! live path before the next starts, over per-lane arrays. One path alone is a long chain of
+//! dependent square roots, divisions and mispredicted branches that leaves the core waiting;
+//! eight side by side give it independent work, and the common case (a diffuse surface lit by
+//! a triangle of an area light) is straight-line lane loops that the compiler vectorises.
+//! Other materials and lights take the scalar code per lane. The estimator is
+//! [`PathTracer::trace`]'s, step for step, with the same random numbers in the same order per
+//! path, for scenes without participating media or index-matched boundaries (the renderer
+//! traces those one path at a time).
+
+// Lane loops index several per-lane arrays with one lane number.
+#![allow(clippy::needless_range_loop)]
+
+use std::f32::consts::FRAC_1_PI;
+
+use glam::{Vec2, Vec3};
+use lucid_scene::Ray;
+use lucid_scene::simd::wide;
+
+use crate::LightStrategy;
+use crate::bsdf::Bsdf;
+use crate::geometry::{Intersection, Shape};
+use crate::integrator::{Frame, PathSample, PathTracer, spawn};
+use crate::light::{Light, LightSample, pick_by_area, point_on_triangle, towards_area_point};
+use crate::material::Material;
+use crate::sampling::{Rng, cosine_hemisphere};
+use crate::scene::Scene;
+
+/// Paths per packet.
+pub const LANES: usize = 8;
+
+type Lanes = [f32; LANES];
+
+/// Vectors, one coordinate per row of lanes.
+#[derive(Clone, Copy, Default)]
+struct Vec3Lanes {
+    x: Lanes,
+    y: Lanes,
+    z: Lanes,
+}
+
+impl Vec3Lanes {
+    #[inline(always)]
+    fn get(&self, l: usize) -> Vec3 {
+        Vec3::new(self.x[l], self.y[l], self.z[l])
+    }
+
+    #[inline(always)]
+    fn set(&mut self, l: usize, v: Vec3) {
+        self.x[l] = v.x;
+        self.y[l] = v.y;
+        self.z[l] = v.z;
+    }
+}
+
+/// What kind of surface vertex a lane has this bounce.
+#[derive(Clone, Copy, Default, PartialEq, Eq)]
+enum VertexKind {
+    /// The path ended.
+    #[default]
+    None,
+    /// A Lambertian surface: evaluated and sampled in the lane loops.
+    Diffuse,
+    /// Any other material: its BSDF is built and called per lane.
+    General,
+}
+
+/// How a lane's light sample was drawn.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LightDraw {
+    /// No light sample this bounce.
+    None,
+    /// A triangle of an area light: the point on it is in the lane arrays, the rest is computed
+    /// in a lane loop.
+    Triangle,
+    /// Already complete (any other light), or rejected.
+    Done,
+}
+
+/// The packet's paths.
+struct Paths {
+    origin: Vec3Lanes,
+    direction: Vec3Lanes,
+    beta: Vec3Lanes,
+    radiance: Vec3Lanes,
+    /// The previous vertex's BSDF pdf, meaningful where `prev_specular` is false.
+    prev_pdf: Lanes,
+    /// The previous bounce was specular, or this is the camera ray: emission found counts fully.
+    prev_specular: [bool; LANES],
+    prev_point: Vec3Lanes,
+    segments: [u32; LANES],
+    alive: [bool; LANES],
+}
+
+/// One bounce's surface vertices.
+#[derive(Default)]
+struct Vertices {
+    kind: [VertexKind; LANES],
+    point: Vec3Lanes,
+    geometric_normal: Vec3Lanes,
+    /// Shading frame: tangent, bitangent, normal.
+    t: Vec3Lanes,
+    b: Vec3Lanes,
+    n: Vec3Lanes,
+    /// Towards the viewer, in the shading frame.
+    wo: Vec3Lanes,
+    /// Albedo of diffuse vertices.
+    albedo: Vec3Lanes,
+    material: [u32; LANES],
+    uv: [Vec2; LANES],
+}
+
+/// One bounce's light samples.
+struct LightSamples {
+    draw: [LightDraw; LANES],
+    /// The point sampled on a triangle light, its normal, the light's area and radiance.
+    light_point: Vec3Lanes,
+    light_normal: Vec3Lanes,
+    area: Lanes,
+    two_sided: [bool; LANES],
+    li: Vec3Lanes,
+    wi: Vec3Lanes,
+    pdf: Lanes,
+    distance: Lanes,
+    delta: [bool; LANES],
+    valid: [bool; LANES],
+}
+
+impl Default for LightSamples {
+    fn default() -> Self {
+        Self {
+            draw: [LightDraw::None; LANES],
+            light_point: Vec3Lanes::default(),
+            light_normal: Vec3Lanes::default(),
+            area: [0.0; LANES],
+            two_sided: [false; LANES],
+            li: Vec3Lanes::default(),
+            wi: Vec3Lanes::default(),
+            pdf: [0.0; LANES],
+            distance: [0.0; LANES],
+            delta: [false; LANES],
+            valid: [false; LANES],
+        }
+    }
+}
+
+impl PathTracer {
+    /// Whether [`PathTracer::trace_packet`] can render `scene`.
+    pub fn packet_supports(scene: &Scene) -> bool {
+        !scene.has_media()
+    }
+
+    /// Traces the camera rays `rays[l]` for the lanes `l < count`, lane `l` drawing from
+    /// `rngs[l]`; the other lanes' results are default. The same estimator as
+    /// [`PathTracer::trace`] for scenes that [`PathTracer::packet_supports`].
+    pub fn trace_packet(
+        &self,
+        scene: &Scene,
+        rays: &[Ray; LANES],
+        count: usize,
+        rngs: &mut [Rng; LANES],
+    ) -> [PathSample; LANES] {
+        debug_assert!(Self::packet_supports(scene));
+        let mut out = [PathSample::default(); LANES];
+        let light_pick = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
+        let mut paths = Paths {
+            origin: Vec3Lanes::default(),
+            direction: Vec3Lanes::default(),
+            beta: Vec3Lanes { x: [1.0; LANES], y: [1.0; LANES], z: [1.0; LANES] },
+            radiance: Vec3Lanes::default(),
+            prev_pdf: [0.0; LANES],
+            prev_specular: [true; LANES],
+            prev_point: Vec3Lanes::default(),
+            segments: [1; LANES],
+            alive: std::array::from_fn(|l| l < count),
+        };
+        for (l, ray) in rays.iter().enumerate() {
+            paths.origin.set(l, ray.origin);
+            paths.direction.set(l, ray.direction);
+            paths.prev_point.set(l, ray.origin);
+        }
+        let mut vertices = Vertices::default();
+        let mut lights = LightSamples::default();
+        while paths.alive.iter().any(|&a| a) {
+            let hits = closest_hits(scene, &paths, &mut out);
+            self.surface_events(scene, &mut paths, &hits, &mut vertices, rays, light_pick, &mut out);
+            if vertices.kind.iter().all(|&k| k == VertexKind::None) {
+                break;
+            }
+            wide(
+                #[inline(always)]
+                || vertices.shading_frames(&paths),
+            );
+            if !scene.lights.is_empty() && self.strategy != LightStrategy::BsdfOnly {
+                self.draw_lights(scene, &vertices, &mut lights, light_pick, rngs);
+                wide(
+                    #[inline(always)]
+                    || lights.finish_triangles(&vertices, light_pick),
+                );
+                self.next_events(scene, &mut paths, &vertices, &lights, &mut out);
+            }
+            self.scatter(scene, &mut paths, &vertices, rngs);
+        }
+        for (l, o) in out.iter_mut().enumerate() {
+            o.radiance = paths.radiance.get(l);
+        }
+        out
+    }
+
+    /// Emission found by the rays, the environment where they miss, the material where they hit.
+    #[allow(clippy::too_many_arguments)]
+    fn surface_events(
+        &self,
+        scene: &Scene,
+        paths: &mut Paths,
+        hits: &[Option<(f32, f32, f32, u32)>; LANES],
+        vertices: &mut Vertices,
+        camera_rays: &[Ray; LANES],
+        light_pick: f32,
+        out: &mut [PathSample; LANES],
+    ) {
+        for l in 0..LANES {
+            vertices.kind[l] = VertexKind::None;
+            if !paths.alive[l] {
+                continue;
+            }
+            let direction = paths.direction.get(l);
+            let beta = paths.beta.get(l);
+            let prev_pdf = (!paths.prev_specular[l]).then_some(paths.prev_pdf[l]);
+            let first = paths.segments[l] == 1;
+            let Some((t, u, v, i)) = hits[l] else {
+                if let Some(env) = scene.environment
+                    && !(first && self.hide_emitters)
+                    && let Some((radiance, env_pdf)) = scene.lights[env].environment(direction)
+                {
+                    let weight = self.emission_weight(prev_pdf, light_pick * env_pdf);
+                    paths.radiance.set(l, paths.radiance.get(l) + beta * radiance * weight);
+                }
+                paths.alive[l] = false;
+                continue;
+            };
+            let ray = Ray { origin: paths.origin.get(l), direction };
+            let hit: Intersection = scene.bvh.interaction(&ray, t, u, v, i);
+            let primitive = &scene.bvh.primitives()[i as usize];
+            let material = &scene.materials[primitive.material as usize];
+            if first {
+                out[l].alpha = 1.0;
+                out[l].distance = (hit.point - camera_rays[l].origin).dot(camera_rays[l].direction);
+                out[l].normal = hit.shading_normal;
+                out[l].albedo = material.albedo(hit.uv);
+            }
+            if let Some(light) = primitive.light
+                && !(first && self.hide_emitters)
+            {
+                let light = &scene.lights[light as usize];
+                let le = light.emitted(hit.geometric_normal, -direction);
+                if le != Vec3::ZERO {
+                    let weight = self.emission_weight(
+                        prev_pdf,
+                        light_pick * light.pdf_area(paths.prev_point.get(l), hit.point, hit.geometric_normal),
+                    );
+                    paths.radiance.set(l, paths.radiance.get(l) + beta * le * weight);
+                }
+            }
+            if paths.segments[l] >= self.max_depth {
+                paths.alive[l] = false;
+                continue;
+            }
+            vertices.kind[l] = match material {
+                Material::Lambertian { albedo } => {
+                    vertices.albedo.set(l, albedo.eval(hit.uv));
+                    VertexKind::Diffuse
+                }
+                _ => VertexKind::General,
+            };
+            vertices.point.set(l, hit.point);
+            vertices.geometric_normal.set(l, hit.geometric_normal);
+            vertices.n.set(l, hit.shading_normal);
+            vertices.t.set(l, hit.tangent);
+            vertices.material[l] = primitive.material;
+            vertices.uv[l] = hit.uv;
+        }
+    }
+
+    /// Picks a light per lane and draws its sample: points on triangle lights are left for
+    /// [`LightSamples::finish_triangles`], other lights are sampled here.
+    fn draw_lights(
+        &self,
+        scene: &Scene,
+        vertices: &Vertices,
+        lights: &mut LightSamples,
+        light_pick: f32,
+        rngs: &mut [Rng; LANES],
+    ) {
+        for l in 0..LANES {
+            lights.draw[l] = LightDraw::None;
+            lights.valid[l] = false;
+            let kind = vertices.kind[l];
+            if kind == VertexKind::None || (kind == VertexKind::General && vertices.bsdf(scene, l).is_specular()) {
+                continue;
+            }
+            // The same draws as `PathTracer::pick_light` and `Light::sample`.
+            let rng = &mut rngs[l];
+            let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
+            let u = rng.uniform2();
+            let light = &scene.lights[pick];
+            if let Light::Area { cdf, shapes, area, radiance, two_sided } = light {
+                let (k, ux) = pick_by_area(cdf, *area, u.x);
+                if let (Shape::Triangle { p, .. }, normal) = &shapes[k] {
+                    lights.draw[l] = LightDraw::Triangle;
+                    lights.light_point.set(l, point_on_triangle(p, Vec2::new(ux, u.y)));
+                    lights.light_normal.set(l, *normal);
+                    lights.area[l] = *area;
+                    lights.two_sided[l] = *two_sided;
+                    lights.li.set(l, *radiance);
+                    continue;
+                }
+            }
+            lights.draw[l] = LightDraw::Done;
+            if let Some(ls) = light.sample(vertices.point.get(l), u)
+                && ls.pdf > 0.0
+            {
+                lights.store(l, &ls, light_pick);
+            }
+        }
+    }
+
+    /// Light samples weighed by the BSDF and tested with shadow rays.
+    fn next_events(
+        &self,
+        scene: &Scene,
+        paths: &mut Paths,
+        vertices: &Vertices,
+        lights: &LightSamples,
+        out: &mut [PathSample; LANES],
+    ) {
+        // Lane loop: the diffuse BSDF's value and density, the MIS weight and the contribution.
+        let mut contribution = Vec3Lanes::default();
+        let mut shadow = [false; LANES];
+        for l in 0..LANES {
+            if !lights.valid[l] {
+                continue;
+            }
+            let wo = vertices.wo.get(l);
+            let wi_world = lights.wi.get(l);
+            let wi = Vec3::new(
+                wi_world.dot(vertices.t.get(l)),
+                wi_world.dot(vertices.b.get(l)),
+                wi_world.dot(vertices.n.get(l)),
+            );
+            let (f, bsdf_pdf) = match vertices.kind[l] {
+                VertexKind::Diffuse => {
+                    let same_side = wo.z * wi.z > 0.0;
+                    let albedo = vertices.albedo.get(l);
+                    if same_side { (albedo * FRAC_1_PI, wi.z.abs().max(0.0) * FRAC_1_PI) } else { (Vec3::ZERO, 0.0) }
+                }
+                _ => {
+                    let bsdf = vertices.bsdf(scene, l);
+                    let f = bsdf.eval(wo, wi);
+                    (f, if f == Vec3::ZERO { 0.0 } else { bsdf.pdf(wo, wi) })
+                }
+            };
+            if f == Vec3::ZERO {
+                continue;
+            }
+            let light_pdf = lights.pdf[l];
+            let weight = self.light_sample_weight(lights.delta[l], light_pdf, bsdf_pdf);
+            contribution.set(l, paths.beta.get(l) * f * wi.z.abs() * lights.li.get(l) * weight / light_pdf);
+            shadow[l] = true;
+        }
+        for l in 0..LANES {
+            if !shadow[l] {
+                continue;
+            }
+            let wi = lights.wi.get(l);
+            let hit = vertices.surface_point(l);
+            let distance = lights.distance[l];
+            let reach = if distance.is_finite() { distance * (1.0 - 1e-3) } else { f32::INFINITY };
+            out[l].rays += 1;
+            if !scene.bvh.occluded(&spawn(&hit, wi), 0.0, reach) {
+                paths.radiance.set(l, paths.radiance.get(l) + contribution.get(l));
+            }
+        }
+    }
+
+    /// Samples each live vertex's BSDF for the next ray, and plays Russian roulette.
+    fn scatter(&self, scene: &Scene, paths: &mut Paths, vertices: &Vertices, rngs: &mut [Rng; LANES]) {
+        for l in 0..LANES {
+            let kind = vertices.kind[l];
+            if kind == VertexKind::None {
+                continue;
+            }
+            let rng = &mut rngs[l];
+            let wo = vertices.wo.get(l);
+            let (u, uc) = (rng.uniform2(), rng.uniform());
+            let sample = if kind == VertexKind::Diffuse {
+                let mut wi = cosine_hemisphere(u);
+                if wo.z < 0.0 {
+                    wi.z = -wi.z;
+                }
+                let pdf = wi.z.abs().max(0.0) * FRAC_1_PI;
+                Some((wi, vertices.albedo.get(l) * FRAC_1_PI, pdf, false))
+            } else {
+                vertices.bsdf(scene, l).sample(wo, u, uc).map(|s| (s.wi, s.f, s.pdf, s.specular))
+            };
+            let Some((wi, f, pdf, specular)) = sample.filter(|s| s.2 > 0.0 && s.1 != Vec3::ZERO) else {
+                paths.alive[l] = false;
+                continue;
+            };
+            let mut beta = paths.beta.get(l) * (f * wi.z.abs() / pdf);
+            paths.prev_pdf[l] = pdf;
+            paths.prev_specular[l] = specular;
+            let point = vertices.point.get(l);
+            paths.prev_point.set(l, point);
+            let direction =
+                (wi.x * vertices.t.get(l) + wi.y * vertices.b.get(l) + wi.z * vertices.n.get(l)).normalize();
+            let ray = spawn(&vertices.surface_point(l), direction);
+            paths.origin.set(l, ray.origin);
+            paths.direction.set(l, ray.direction);
+            paths.segments[l] += 1;
+            paths.alive[l] = self.russian_roulette(paths.segments[l], &mut beta, rng);
+            paths.beta.set(l, beta);
+        }
+    }
+}
+
+/// Each live path's closest hit.
+fn closest_hits(scene: &Scene, paths: &Paths, out: &mut [PathSample; LANES]) -> [Option<(f32, f32, f32, u32)>; LANES] {
+    let mut hits = [None; LANES];
+    for l in 0..LANES {
+        if paths.alive[l] {
+            let ray = Ray { origin: paths.origin.get(l), direction: paths.direction.get(l) };
+            hits[l] = scene.bvh.closest(&ray, 0.0, f32::INFINITY);
+            out[l].rays += 1;
+        }
+    }
+    hits
+}
+
+impl Vertices {
+    /// The shading frames ([`Frame::new`]) and `wo` in them, in a lane loop.
+    #[inline(always)]
+    fn shading_frames(&mut self, paths: &Paths) {
+        for l in 0..LANES {
+            let n = self.n.get(l);
+            let frame = Frame::new(n, self.t.get(l));
+            self.t.set(l, frame.t);
+            self.b.set(l, frame.b);
+            self.wo.set(l, frame.to_local(-paths.direction.get(l)));
+        }
+    }
+
+    /// The BSDF of a general vertex.
+    fn bsdf(&self, scene: &Scene, l: usize) -> crate::material::SurfaceBsdf {
+        scene.materials[self.material[l] as usize].bsdf(self.uv[l])
+    }
+
+    /// What [`spawn`] needs of the vertex.
+    #[inline(always)]
+    fn surface_point(&self, l: usize) -> Intersection {
+        Intersection {
+            t: 0.0,
+            point: self.point.get(l),
+            geometric_normal: self.geometric_normal.get(l),
+            shading_normal: Vec3::ZERO,
+            uv: Vec2::ZERO,
+            tangent: Vec3::ZERO,
+            primitive: 0,
+        }
+    }
+}
+
+impl LightSamples {
+    /// A complete sample, its density times the light's selection probability `light_pick`.
+    fn store(&mut self, l: usize, ls: &LightSample, light_pick: f32) {
+        self.wi.set(l, ls.wi);
+        self.li.set(l, ls.li);
+        self.pdf[l] = light_pick * ls.pdf;
+        self.distance[l] = ls.distance;
+        self.delta[l] = ls.delta;
+        self.valid[l] = true;
+    }
+
+    /// Completes the samples of triangle lights ([`towards_area_point`]) in a lane loop.
+    #[inline(always)]
+    fn finish_triangles(&mut self, vertices: &Vertices, light_pick: f32) {
+        for l in 0..LANES {
+            if self.draw[l] != LightDraw::Triangle {
+                continue;
+            }
+            let (ls, valid) = towards_area_point(
+                vertices.point.get(l),
+                self.light_point.get(l),
+                self.light_normal.get(l),
+                self.area[l],
+                self.li.get(l),
+                self.two_sided[l],
+            );
+            self.wi.set(l, ls.wi);
+            self.pdf[l] = light_pick * ls.pdf;
+            self.distance[l] = ls.distance;
+            self.delta[l] = false;
+            self.valid[l] = valid & (ls.pdf > 0.0);
+        }
+    }
+}
