@@ -100,9 +100,16 @@ impl Frame {
 /// Starts a ray just off the surface, on the side `direction` leaves towards, so that it
 /// does not hit the surface it starts on.
 pub fn spawn(hit: &Intersection, direction: Vec3) -> Ray {
-    let offset = 1e-4 * (1.0 + hit.point.abs().max_element());
-    let side = if direction.dot(hit.geometric_normal) >= 0.0 { 1.0 } else { -1.0 };
-    Ray { origin: hit.point + side * offset * hit.geometric_normal, direction }
+    Ray { origin: spawn_origin(hit.point, hit.geometric_normal, direction), direction }
+}
+
+/// Where [`spawn`] starts a ray in `direction` from `point` on a surface with geometric
+/// normal `normal`.
+#[inline(always)]
+pub(crate) fn spawn_origin(point: Vec3, normal: Vec3, direction: Vec3) -> Vec3 {
+    let offset = 1e-4 * (1.0 + point.abs().max_element());
+    let side = if direction.dot(normal) >= 0.0 { 1.0 } else { -1.0 };
+    point + side * offset * normal
 }
 
 impl PathTracer {

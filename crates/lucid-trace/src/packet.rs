@@ -21,7 +21,7 @@ use lucid_scene::simd::wide;
 use crate::LightStrategy;
 use crate::bsdf::Bsdf;
 use crate::geometry::{Intersection, Shape};
-use crate::integrator::{Frame, PathSample, PathTracer, spawn};
+use crate::integrator::{Frame, PathSample, PathTracer, spawn, spawn_origin};
 use crate::light::{Light, LightSample, pick_by_area, point_on_triangle, towards_area_point};
 use crate::material::Material;
 use crate::sampling::{Rng, cosine_hemisphere};
@@ -386,41 +386,96 @@ impl PathTracer {
 
     /// Samples each live vertex's BSDF for the next ray, and plays Russian roulette.
     fn scatter(&self, scene: &Scene, paths: &mut Paths, vertices: &Vertices, rngs: &mut [Rng; LANES]) {
+        let mut s = BsdfSamples::default();
         for l in 0..LANES {
-            let kind = vertices.kind[l];
-            if kind == VertexKind::None {
+            if vertices.kind[l] != VertexKind::None {
+                let rng = &mut rngs[l];
+                (s.u[l], s.uc[l]) = (rng.uniform2(), rng.uniform());
+            }
+        }
+        wide(
+            #[inline(always)]
+            || s.sample_diffuse(vertices),
+        );
+        for l in 0..LANES {
+            match vertices.kind[l] {
+                VertexKind::None => s.valid[l] = false,
+                VertexKind::Diffuse => {}
+                VertexKind::General => {
+                    let sample = vertices.bsdf(scene, l).sample(vertices.wo.get(l), s.u[l], s.uc[l]);
+                    s.valid[l] = sample.is_some_and(|b| b.pdf > 0.0 && b.f != Vec3::ZERO);
+                    if let Some(b) = sample.filter(|_| s.valid[l]) {
+                        s.wi.set(l, b.wi);
+                        s.f.set(l, b.f);
+                        s.pdf[l] = b.pdf;
+                        s.specular[l] = b.specular;
+                    }
+                }
+            }
+        }
+        paths.continue_from(vertices, &s);
+        for l in 0..LANES {
+            if paths.alive[l] && paths.segments[l] > self.rr_depth {
+                let mut beta = paths.beta.get(l);
+                paths.alive[l] = self.russian_roulette(paths.segments[l], &mut beta, &mut rngs[l]);
+                paths.beta.set(l, beta);
+            }
+        }
+    }
+}
+
+/// One bounce's BSDF samples.
+#[derive(Default)]
+struct BsdfSamples {
+    u: [Vec2; LANES],
+    uc: Lanes,
+    wi: Vec3Lanes,
+    f: Vec3Lanes,
+    pdf: Lanes,
+    specular: [bool; LANES],
+    valid: [bool; LANES],
+}
+
+impl BsdfSamples {
+    /// The Lambertian sample ([`crate::bsdf::Lambertian`]'s `sample`) in every lane, in a lane
+    /// loop that the compiler vectorises; other lanes overwrite it afterwards.
+    #[inline(always)]
+    fn sample_diffuse(&mut self, vertices: &Vertices) {
+        for l in 0..LANES {
+            let mut wi = cosine_hemisphere(self.u[l]);
+            if vertices.wo.z[l] < 0.0 {
+                wi.z = -wi.z;
+            }
+            let pdf = wi.z.abs().max(0.0) * FRAC_1_PI;
+            let f = vertices.albedo.get(l) * FRAC_1_PI;
+            self.wi.set(l, wi);
+            self.f.set(l, f);
+            self.pdf[l] = pdf;
+            self.specular[l] = false;
+            self.valid[l] = (pdf > 0.0) & (f != Vec3::ZERO);
+        }
+    }
+}
+
+impl Paths {
+    /// Moves each path with a valid sample on to its next ray, ending the others.
+    fn continue_from(&mut self, vertices: &Vertices, s: &BsdfSamples) {
+        for l in 0..LANES {
+            if !s.valid[l] {
+                self.alive[l] = false;
                 continue;
             }
-            let rng = &mut rngs[l];
-            let wo = vertices.wo.get(l);
-            let (u, uc) = (rng.uniform2(), rng.uniform());
-            let sample = if kind == VertexKind::Diffuse {
-                let mut wi = cosine_hemisphere(u);
-                if wo.z < 0.0 {
-                    wi.z = -wi.z;
-                }
-                let pdf = wi.z.abs().max(0.0) * FRAC_1_PI;
-                Some((wi, vertices.albedo.get(l) * FRAC_1_PI, pdf, false))
-            } else {
-                vertices.bsdf(scene, l).sample(wo, u, uc).map(|s| (s.wi, s.f, s.pdf, s.specular))
-            };
-            let Some((wi, f, pdf, specular)) = sample.filter(|s| s.2 > 0.0 && s.1 != Vec3::ZERO) else {
-                paths.alive[l] = false;
-                continue;
-            };
-            let mut beta = paths.beta.get(l) * (f * wi.z.abs() / pdf);
-            paths.prev_pdf[l] = pdf;
-            paths.prev_specular[l] = specular;
+            let wi = s.wi.get(l);
             let point = vertices.point.get(l);
-            paths.prev_point.set(l, point);
             let direction =
                 (wi.x * vertices.t.get(l) + wi.y * vertices.b.get(l) + wi.z * vertices.n.get(l)).normalize();
-            let ray = spawn(&vertices.surface_point(l), direction);
-            paths.origin.set(l, ray.origin);
-            paths.direction.set(l, ray.direction);
-            paths.segments[l] += 1;
-            paths.alive[l] = self.russian_roulette(paths.segments[l], &mut beta, rng);
-            paths.beta.set(l, beta);
+            self.beta.set(l, self.beta.get(l) * (s.f.get(l) * wi.z.abs() / s.pdf[l]));
+            self.origin.set(l, spawn_origin(point, vertices.geometric_normal.get(l), direction));
+            self.direction.set(l, direction);
+            self.prev_point.set(l, point);
+            self.prev_pdf[l] = s.pdf[l];
+            self.prev_specular[l] = s.specular[l];
+            self.segments[l] += 1;
         }
     }
 }
