@@ -11,7 +11,7 @@ use rayon::prelude::*;
 
 use crate::integrator::{PathSample, PathTracer};
 use crate::packet::LANES;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
 
 /// The camera models a render can use.
@@ -135,11 +135,15 @@ fn render_pixel(
         }
     };
     if PathTracer::packet_supports(scene) {
-        // Each sample has its own stream, so that eight of them can be traced side by side.
+        // Each sample has its own generator, so that eight of them can be traced side by side:
+        // the pixel's stream started at a state hashed from the sample's index (PCG streams
+        // whose increments differ by a little are correlated; one stream at far-apart states
+        // is not).
         for first in (0..spp).step_by(LANES) {
             let count = (spp - first).min(LANES as u32) as usize;
-            let mut rngs: [Rng; LANES] =
-                std::array::from_fn(|l| Rng::new(settings.seed, pixel * spp as u64 + (first as usize + l) as u64));
+            let mut rngs: [Rng; LANES] = std::array::from_fn(|l| {
+                Rng::new(settings.seed ^ mix(pixel * spp as u64 + (first as usize + l) as u64), pixel)
+            });
             let rays: [lucid_scene::Ray; LANES] = std::array::from_fn(|l| {
                 let rng = &mut rngs[l];
                 let jitter = rng.uniform2();
