@@ -10,7 +10,7 @@
 
 use std::mem::MaybeUninit;
 
-use glam::Vec3A;
+use glam::{Vec3A, Vec4};
 use lucid_scene::Ray;
 use lucid_scene::simd::wide;
 
@@ -54,27 +54,17 @@ struct Leaf {
     spheres: (u32, u32),
 }
 
-/// `a > b ? a : b` and its twin: the x86 `max`/`min` instructions, where `f32::max` would add
-/// NaN handling to every lane (no NaN reaches them: see [`RayQuery::boxes`]).
-#[inline(always)]
-fn max(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
-}
-
-#[inline(always)]
-fn min(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
 /// A ray prepared for box and packet tests.
 struct RayQuery {
     o: [f32; 3],
     d: [f32; 3],
-    inv: [f32; 3],
     /// Per axis, 1 where the direction is negative: which box corner the ray enters by.
     sign: [usize; 3],
     origin: Vec3A,
     direction: Vec3A,
+    /// The origin and inverse direction per axis, in every lane.
+    o4: [Vec4; 3],
+    inv4: [Vec4; 3],
 }
 
 impl RayQuery {
@@ -85,10 +75,11 @@ impl RayQuery {
         Self {
             o: o.to_array(),
             d: d.to_array(),
-            inv: inv.to_array(),
             sign: [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize],
             origin: o,
             direction: d,
+            o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv4: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
         }
     }
 
@@ -100,14 +91,19 @@ impl RayQuery {
     fn boxes(&self, node: &Node8, t_min: f32, t_max: f32) -> (u32, [f32; W]) {
         let [sx, sy, sz] = self.sign;
         let b = &node.bounds;
+        // Two explicit 4-wide halves (glam's SSE vectors): written as an 8-lane loop, the
+        // compiler vectorised it into 4-, 2- and 1-lane pieces joined by shuffles, three times
+        // the instructions. `Vec4::max`/`min` are the x86 instructions (`a > b ? a : b`),
+        // where `f32::max` would add NaN handling to every lane.
         let mut near = [0f32; W];
         let mut mask = 0u32;
-        for l in 0..W {
-            let slab = |corner: usize, a: usize| (b[corner][a][l] - self.o[a]) * self.inv[a];
-            let n = max(max(slab(sx, 0), slab(sy, 1)), max(slab(sz, 2), t_min));
-            let f = min(min(slab(1 - sx, 0), slab(1 - sy, 1)), min(slab(1 - sz, 2), t_max));
-            near[l] = n;
-            mask |= ((n <= f) as u32) << l;
+        for half in 0..2 {
+            let row = |r: &[f32; W]| Vec4::from_slice(&r[4 * half..4 * half + 4]);
+            let slab = |corner: usize, a: usize| (row(&b[corner][a]) - self.o4[a]) * self.inv4[a];
+            let n = slab(sx, 0).max(slab(sy, 1)).max(slab(sz, 2).max(Vec4::splat(t_min)));
+            let f = slab(1 - sx, 0).min(slab(1 - sy, 1)).min(slab(1 - sz, 2).min(Vec4::splat(t_max)));
+            n.write_to_slice(&mut near[4 * half..4 * half + 4]);
+            mask |= n.cmple(f).bitmask() << (4 * half);
         }
         (mask, near)
     }
@@ -340,11 +336,10 @@ impl WideBvh {
         for tri in &self.packets[range(leaf.packets)] {
             let (hit, t, u, v) = q.triangles(tri, t_min, *closest);
             if hit != 0 {
-                // Missed lanes hold +∞, so the minimum is a hit's; a tree of minima keeps the
-                // dependency chain three deep.
-                let m4: [f32; 4] = std::array::from_fn(|l| min(t[l], t[l + 4]));
-                let nearest = min(min(m4[0], m4[2]), min(m4[1], m4[3]));
-                let at = (0..W).fold(0u32, |m, l| m | (((t[l] == nearest) as u32) << l));
+                // Missed lanes hold +∞, so the minimum is a hit's.
+                let (lo, hi) = (Vec4::from_slice(&t[..4]), Vec4::from_slice(&t[4..]));
+                let nearest = lo.min(hi).min_element();
+                let at = lo.cmpeq(Vec4::splat(nearest)).bitmask() | (hi.cmpeq(Vec4::splat(nearest)).bitmask() << 4);
                 let lane = at.trailing_zeros() as usize;
                 *closest = nearest;
                 *best = Some((nearest, u[lane], v[lane], tri.primitive[lane]));
