@@ -10,7 +10,6 @@ use glam::Vec2;
 use lucid_scene::Ray;
 use lucid_scene::camera::Camera;
 use lucid_trace::integrator::spawn;
-use lucid_trace::packet::LANES;
 use lucid_trace::render::RenderCamera;
 use lucid_trace::sampling::{Rng, cosine_hemisphere, orthonormal_basis};
 use lucid_trace::scene_file::load_scene;
@@ -75,15 +74,9 @@ fn main() {
     println!("{:<28} {:>10} {:>12.1} {:>10}", "  per ray of a path", rays, s * 1e9 / rays as f64, "");
     // The renderer's way: eight paths in lock-step, each with its own stream.
     let (s, rays) = best_of(3, || {
-        let mut rays = 0;
-        for (k, packet) in camera_rays.chunks(LANES).enumerate() {
-            let count = packet.len();
-            let batch: [Ray; LANES] = std::array::from_fn(|l| packet[l.min(count - 1)]);
-            let mut rngs: [Rng; LANES] = std::array::from_fn(|l| Rng::new(2, (k * LANES + l) as u64));
-            let out = tracer.trace_packet(scene, &batch, count, &mut rngs);
-            rays += out.iter().map(|o| o.rays as usize).sum::<usize>();
-        }
-        rays
+        let mut out = vec![Default::default(); camera_rays.len()];
+        tracer.trace_paths(scene, |k| (camera_rays[k], Rng::new(2, k as u64)), &mut out);
+        out.iter().map(|o| o.rays as usize).sum::<usize>()
     });
     println!("{:<28} {n:>10} {:>12.1} {:>10}", "whole paths, packets of 8", s * 1e9 / n as f64, "");
     println!("{:<28} {:>10} {:>12.1} {:>10}", "  per ray of a path", rays, s * 1e9 / rays as f64, "");

@@ -93,6 +93,38 @@ struct Paths {
     alive: [bool; LANES],
 }
 
+impl Default for Paths {
+    /// No live paths.
+    fn default() -> Self {
+        Self {
+            origin: Vec3Lanes::default(),
+            direction: Vec3Lanes::default(),
+            beta: Vec3Lanes::default(),
+            radiance: Vec3Lanes::default(),
+            prev_pdf: [0.0; LANES],
+            prev_specular: [true; LANES],
+            prev_point: Vec3Lanes::default(),
+            segments: [1; LANES],
+            alive: [false; LANES],
+        }
+    }
+}
+
+impl Paths {
+    /// Starts a camera path along `ray` in lane `l`.
+    fn begin(&mut self, l: usize, ray: &Ray) {
+        self.origin.set(l, ray.origin);
+        self.direction.set(l, ray.direction);
+        self.beta.set(l, Vec3::ONE);
+        self.radiance.set(l, Vec3::ZERO);
+        self.prev_pdf[l] = 0.0;
+        self.prev_specular[l] = true;
+        self.prev_point.set(l, ray.origin);
+        self.segments[l] = 1;
+        self.alive[l] = true;
+    }
+}
+
 /// One bounce's surface vertices.
 #[derive(Default)]
 struct Vertices {
@@ -151,61 +183,60 @@ impl PathTracer {
         !scene.has_media()
     }
 
-    /// Traces the camera rays `rays[l]` for the lanes `l < count`, lane `l` drawing from
-    /// `rngs[l]`; the other lanes' results are default. The same estimator as
-    /// [`PathTracer::trace`] for scenes that [`PathTracer::packet_supports`].
-    pub fn trace_packet(
-        &self,
-        scene: &Scene,
-        rays: &[Ray; LANES],
-        count: usize,
-        rngs: &mut [Rng; LANES],
-    ) -> [PathSample; LANES] {
+    /// Traces `out.len()` camera paths, `start(k)` giving path `k`'s camera ray and random
+    /// stream, into `out[k]`: eight at a time, a lane whose path ends taking the next one, so
+    /// that the lanes stay busy (paths end after different numbers of bounces). Each path
+    /// draws only from its own stream, so the results do not depend on which lane traced it
+    /// when. The same estimator as [`PathTracer::trace`] for scenes that
+    /// [`PathTracer::packet_supports`].
+    pub fn trace_paths(&self, scene: &Scene, mut start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
         debug_assert!(Self::packet_supports(scene));
-        let mut out = [PathSample::default(); LANES];
         let light_pick = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
-        let mut paths = Paths {
-            origin: Vec3Lanes::default(),
-            direction: Vec3Lanes::default(),
-            beta: Vec3Lanes { x: [1.0; LANES], y: [1.0; LANES], z: [1.0; LANES] },
-            radiance: Vec3Lanes::default(),
-            prev_pdf: [0.0; LANES],
-            prev_specular: [true; LANES],
-            prev_point: Vec3Lanes::default(),
-            segments: [1; LANES],
-            alive: std::array::from_fn(|l| l < count),
-        };
-        for (l, ray) in rays.iter().enumerate() {
-            paths.origin.set(l, ray.origin);
-            paths.direction.set(l, ray.direction);
-            paths.prev_point.set(l, ray.origin);
-        }
+        let mut paths = Paths::default();
+        let mut rngs: [Rng; LANES] = std::array::from_fn(|_| Rng::new(0, 0));
+        let mut camera_rays = [Ray { origin: Vec3::ZERO, direction: Vec3::Z }; LANES];
+        let mut results = [PathSample::default(); LANES];
+        let mut traced: [Option<usize>; LANES] = [None; LANES];
+        let mut next = 0;
         let mut vertices = Vertices::default();
         let mut lights = LightSamples::default();
-        while paths.alive.iter().any(|&a| a) {
-            let hits = closest_hits(scene, &paths, &mut out);
-            self.surface_events(scene, &mut paths, &hits, &mut vertices, rays, light_pick, &mut out);
-            if vertices.kind.iter().all(|&k| k == VertexKind::None) {
+        loop {
+            for l in 0..LANES {
+                if paths.alive[l] {
+                    continue;
+                }
+                if let Some(k) = traced[l].take() {
+                    out[k] = PathSample { radiance: paths.radiance.get(l), ..results[l] };
+                }
+                if next < out.len() {
+                    let (ray, rng) = start(next);
+                    paths.begin(l, &ray);
+                    (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(next));
+                    next += 1;
+                }
+            }
+            if !paths.alive.iter().any(|&a| a) {
                 break;
+            }
+            let hits = closest_hits(scene, &paths, &mut results);
+            self.surface_events(scene, &mut paths, &hits, &mut vertices, &camera_rays, light_pick, &mut results);
+            if vertices.kind.iter().all(|&k| k == VertexKind::None) {
+                continue;
             }
             wide(
                 #[inline(always)]
                 || vertices.shading_frames(&paths),
             );
             if !scene.lights.is_empty() && self.strategy != LightStrategy::BsdfOnly {
-                self.draw_lights(scene, &vertices, &mut lights, light_pick, rngs);
+                self.draw_lights(scene, &vertices, &mut lights, light_pick, &mut rngs);
                 wide(
                     #[inline(always)]
                     || lights.finish_triangles(&vertices, light_pick),
                 );
-                self.next_events(scene, &mut paths, &vertices, &lights, &mut out);
+                self.next_events(scene, &mut paths, &vertices, &lights, &mut results);
             }
-            self.scatter(scene, &mut paths, &vertices, rngs);
+            self.scatter(scene, &mut paths, &vertices, &mut rngs);
         }
-        for (l, o) in out.iter_mut().enumerate() {
-            o.radiance = paths.radiance.get(l);
-        }
-        out
     }
 
     /// Emission found by the rays, the environment where they miss, the material where they hit.

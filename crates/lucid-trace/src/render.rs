@@ -10,7 +10,6 @@ use lucid_scene::{Camera, PinholeCamera, ThinLensCamera};
 use rayon::prelude::*;
 
 use crate::integrator::{PathSample, PathTracer};
-use crate::packet::LANES;
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
 
@@ -139,21 +138,21 @@ fn render_pixel(
         // the pixel's stream started at a state hashed from the sample's index (PCG streams
         // whose increments differ by a little are correlated; one stream at far-apart states
         // is not).
-        for first in (0..spp).step_by(LANES) {
-            let count = (spp - first).min(LANES as u32) as usize;
-            let mut rngs: [Rng; LANES] = std::array::from_fn(|l| {
-                Rng::new(settings.seed ^ mix(pixel * spp as u64 + (first as usize + l) as u64), pixel)
-            });
-            let rays: [lucid_scene::Ray; LANES] = std::array::from_fn(|l| {
-                let rng = &mut rngs[l];
+        let mut samples = vec![PathSample::default(); spp as usize];
+        let mut rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; spp as usize];
+        settings.integrator.trace_paths(
+            scene,
+            |k| {
+                let mut rng = Rng::new(settings.seed ^ mix(pixel * spp as u64 + k as u64), pixel);
                 let jitter = rng.uniform2();
                 let lens = rng.uniform2();
-                camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens)
-            });
-            let samples = settings.integrator.trace_packet(scene, &rays, count, &mut rngs);
-            for l in 0..count {
-                add(&rays[l], &samples[l]);
-            }
+                rays[k] = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                (rays[k], rng)
+            },
+            &mut samples,
+        );
+        for (ray, sample) in rays.iter().zip(&samples) {
+            add(ray, sample);
         }
     } else {
         let mut rng = Rng::new(settings.seed, pixel);

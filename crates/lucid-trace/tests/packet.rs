@@ -9,7 +9,6 @@ use lucid_scene::camera::Camera;
 use lucid_scene::{Intrinsics, PinholeCamera, Ray, look_at};
 use lucid_trace::geometry::procedural::quad;
 use lucid_trace::light::Light;
-use lucid_trace::packet::LANES;
 use lucid_trace::sampling::Rng;
 use lucid_trace::{
     Emission, LightStrategy, Material, PathTracer, RenderCamera, Scene, SceneBuilder, Texture, load_scene,
@@ -22,7 +21,7 @@ fn camera_ray(camera: &RenderCamera, px: f32, py: f32, lens: Vec2) -> Ray {
     }
 }
 
-/// Traces `packets` packets of camera rays over the image both ways and compares path by path.
+/// Traces batches of camera rays over the image both ways and compares path by path.
 fn assert_packets_match_single_paths(name: &str, scene: &Scene, camera: &RenderCamera, tracer: &PathTracer) {
     assert!(PathTracer::packet_supports(scene), "{name}");
     let (w, h) = match camera {
@@ -31,19 +30,21 @@ fn assert_packets_match_single_paths(name: &str, scene: &Scene, camera: &RenderC
     };
     let mut picker = Rng::new(3, 0);
     let mut lit = 0;
-    for packet in 0..64u64 {
-        // The last packet is partly filled.
-        let count = if packet == 63 { 5 } else { LANES };
-        let rays: [Ray; LANES] = std::array::from_fn(|_| {
-            let (px, py) = (picker.uniform() * w as f32, picker.uniform() * h as f32);
-            camera_ray(camera, px, py, picker.uniform2())
-        });
-        let mut rngs: [Rng; LANES] = std::array::from_fn(|l| Rng::new(17, packet * LANES as u64 + l as u64));
-        let packed = tracer.trace_packet(scene, &rays, count, &mut rngs);
-        for l in 0..LANES {
-            let mut rng = Rng::new(17, packet * LANES as u64 + l as u64);
-            let single = if l < count { tracer.trace(scene, rays[l], &mut rng) } else { Default::default() };
-            assert_eq!(packed[l], single, "{name}, packet {packet}, lane {l}");
+    // Batches of several sizes: lanes take new paths as theirs end, and the last packet of a
+    // batch is partly filled.
+    for (batch, count) in [1usize, 5, 8, 9, 64, 300].into_iter().enumerate() {
+        let rays: Vec<Ray> = (0..count)
+            .map(|_| {
+                let (px, py) = (picker.uniform() * w as f32, picker.uniform() * h as f32);
+                camera_ray(camera, px, py, picker.uniform2())
+            })
+            .collect();
+        let stream = |k: usize| Rng::new(17, (batch * 1000 + k) as u64);
+        let mut packed = vec![Default::default(); count];
+        tracer.trace_paths(scene, |k| (rays[k], stream(k)), &mut packed);
+        for k in 0..count {
+            let single = tracer.trace(scene, rays[k], &mut stream(k));
+            assert_eq!(packed[k], single, "{name}, batch of {count}, path {k}");
             lit += (single.radiance != Vec3::ZERO) as usize;
         }
     }
