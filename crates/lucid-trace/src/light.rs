@@ -209,7 +209,8 @@ pub(crate) fn pick_by_area(cdf: &[f32], area: f32, u: f32) -> (usize, f32) {
 
 /// The light sample from `point` towards `light_point` (normal `n`) of an area light of total
 /// area `area`, and whether it is valid (not from behind a one-sided light, finite density).
-/// Branch-free, so that a loop over the lanes of a path packet vectorises.
+/// Shared by [`Light::sample`] and the packet tracer, which completes its lanes' triangle-light
+/// samples with it in one loop after drawing them.
 #[inline(always)]
 pub(crate) fn towards_area_point(
     point: Vec3,
