@@ -118,7 +118,7 @@ impl PathTracer {
         let mut out = PathSample::default();
         let mut ray = camera_ray;
         let mut beta = Vec3::ONE;
-        let light_pick = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
+        let light_pick = light_selection_probability(scene);
         // The previous vertex's BSDF or phase pdf, for weighting emission found by sampling
         // it; None after a specular bounce or for the camera ray.
         let mut prev_pdf: Option<f32> = None;
@@ -275,17 +275,11 @@ impl PathTracer {
     }
 
     /// Picks one light uniformly and samples it from `point`: `(selection × light pdf, sample)`.
-    pub(crate) fn pick_light(
-        &self,
-        scene: &Scene,
-        point: Vec3,
-        light_pick: f32,
-        rng: &mut Rng,
-    ) -> Option<(f32, LightSample)> {
+    fn pick_light(&self, scene: &Scene, point: Vec3, light_pick: f32, rng: &mut Rng) -> Option<(f32, LightSample)> {
         if scene.lights.is_empty() || self.strategy == LightStrategy::BsdfOnly {
             return None;
         }
-        let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
+        let pick = pick_light_index(scene, rng);
         let ls = scene.lights[pick].sample(point, rng.uniform2())?;
         (ls.pdf > 0.0).then_some((light_pick * ls.pdf, ls))
     }
@@ -329,6 +323,17 @@ impl PathTracer {
         }
         Vec3::ZERO
     }
+}
+
+/// The probability with which [`pick_light_index`] picks any one light (0 without lights).
+pub(crate) fn light_selection_probability(scene: &Scene) -> f32 {
+    if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 }
+}
+
+/// One of the scene's lights, uniformly (the scene must have one); one draw from `rng`.
+#[inline]
+pub(crate) fn pick_light_index(scene: &Scene, rng: &mut Rng) -> usize {
+    ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1)
 }
 
 /// Bound on boundary crossings along one ray, against degenerate geometry.

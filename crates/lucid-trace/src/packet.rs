@@ -20,12 +20,12 @@ use lucid_scene::Ray;
 use lucid_scene::simd::wide;
 
 use crate::LightStrategy;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Lambertian};
 use crate::geometry::{Intersection, Shape};
-use crate::integrator::{Frame, PathSample, PathTracer, spawn_origin};
+use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index, spawn_origin};
 use crate::light::{Light, LightSample, pick_by_area, point_on_triangle, towards_area_point};
 use crate::material::{Material, SurfaceBsdf};
-use crate::sampling::{Rng, cosine_hemisphere};
+use crate::sampling::{Rng, cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::Scene;
 
 /// Paths per packet.
@@ -176,7 +176,7 @@ impl PathTracer {
     /// [`PathTracer::packet_supports`].
     pub fn trace_paths(&self, scene: &Scene, mut start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
         debug_assert!(Self::packet_supports(scene));
-        let light_pick = if scene.lights.is_empty() { 0.0 } else { 1.0 / scene.lights.len() as f32 };
+        let light_pick = light_selection_probability(scene);
         let mut paths = Paths::default();
         let mut rngs: [Rng; LANES] = std::array::from_fn(|_| Rng::new(0, 0));
         let mut camera_rays = [Ray { origin: Vec3::ZERO, direction: Vec3::Z }; LANES];
@@ -319,7 +319,7 @@ impl PathTracer {
             }
             // The same draws as `PathTracer::pick_light` and `Light::sample`.
             let rng = &mut rngs[l];
-            let pick = ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1);
+            let pick = pick_light_index(scene, rng);
             let u = rng.uniform2();
             let light = &scene.lights[pick];
             if let Light::Area { cdf, shapes, area, radiance, two_sided } = light {
@@ -360,17 +360,11 @@ impl PathTracer {
                 continue;
             }
             let wo = vertices.wo.get(l);
-            let wi_world = lights.wi.get(l);
-            let wi = Vec3::new(
-                wi_world.dot(vertices.t.get(l)),
-                wi_world.dot(vertices.b.get(l)),
-                wi_world.dot(vertices.n.get(l)),
-            );
+            let wi = vertices.frame(l).to_local(lights.wi.get(l));
             let (f, bsdf_pdf) = match vertices.kind[l] {
                 VertexKind::Diffuse => {
-                    let same_side = wo.z * wi.z > 0.0;
-                    let albedo = vertices.albedo.get(l);
-                    if same_side { (albedo * FRAC_1_PI, wi.z.abs().max(0.0) * FRAC_1_PI) } else { (Vec3::ZERO, 0.0) }
+                    let lambert = Lambertian { albedo: vertices.albedo.get(l) };
+                    (lambert.eval(wo, wi), lambert.pdf(wo, wi))
                 }
                 _ => {
                     let bsdf = vertices.bsdf(l);
@@ -466,7 +460,7 @@ impl BsdfSamples {
             if vertices.wo.z[l] < 0.0 {
                 wi.z = -wi.z;
             }
-            let pdf = wi.z.abs().max(0.0) * FRAC_1_PI;
+            let pdf = cosine_hemisphere_pdf(wi.z.abs());
             let f = vertices.albedo.get(l) * FRAC_1_PI;
             self.wi.set(l, wi);
             self.f.set(l, f);
@@ -487,8 +481,7 @@ impl Paths {
             }
             let wi = s.wi.get(l);
             let point = vertices.point.get(l);
-            let direction =
-                (wi.x * vertices.t.get(l) + wi.y * vertices.b.get(l) + wi.z * vertices.n.get(l)).normalize();
+            let direction = vertices.frame(l).to_world(wi).normalize();
             self.beta.set(l, self.beta.get(l) * (s.f.get(l) * wi.z.abs() / s.pdf[l]));
             self.origin.set(l, spawn_origin(point, vertices.geometric_normal.get(l), direction));
             self.direction.set(l, direction);
@@ -524,6 +517,12 @@ impl Vertices {
             self.b.set(l, frame.b);
             self.wo.set(l, frame.to_local(-paths.direction.get(l)));
         }
+    }
+
+    /// Lane `l`'s shading frame (after [`Vertices::shading_frames`]).
+    #[inline(always)]
+    fn frame(&self, l: usize) -> Frame {
+        Frame { t: self.t.get(l), b: self.b.get(l), n: self.n.get(l) }
     }
 
     /// The BSDF of a general vertex.

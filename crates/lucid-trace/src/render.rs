@@ -139,19 +139,19 @@ fn render_pixel(
         // whose increments differ by a little are correlated; one stream at far-apart states
         // is not).
         let mut samples = vec![PathSample::default(); spp as usize];
-        let mut rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; spp as usize];
+        let mut camera_rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; spp as usize];
         settings.integrator.trace_paths(
             scene,
             |k| {
                 let mut rng = Rng::new(settings.seed ^ mix(pixel * spp as u64 + k as u64), pixel);
                 let jitter = rng.uniform2();
                 let lens = rng.uniform2();
-                rays[k] = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
-                (rays[k], rng)
+                camera_rays[k] = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                (camera_rays[k], rng)
             },
             &mut samples,
         );
-        for (ray, sample) in rays.iter().zip(&samples) {
+        for (ray, sample) in camera_rays.iter().zip(&samples) {
             add(ray, sample);
         }
     } else {
