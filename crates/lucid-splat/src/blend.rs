@@ -52,13 +52,20 @@ pub struct SplatLanes {
     colour: [f32; 3],
     depth: f32,
     conic: [f32; 3],
+    /// The blend-threshold ellipse `A dx² + 2B dx dy + C dy² ≤ R`, `R = 2 ln(opacity / min α)`,
+    /// as its rows' spans: centre `mean_x + slope·dy`, half-width `√(ar − k·dy²) / A`.
+    slope: f32,
+    ar: f32,
+    k: f32,
+    inv_a: f32,
 }
 
 impl SplatLanes {
     /// The kernel constants of a projected splat.
     #[inline]
-    pub fn new(s: &ProjectedSplat) -> Self {
+    pub fn new(s: &ProjectedSplat, min_alpha: f32) -> Self {
         let [a, b, c] = s.conic;
+        let reach2 = 2.0 * (s.opacity / min_alpha).ln();
         Self {
             qa: -0.5 * a,
             qb: -b,
@@ -69,9 +76,90 @@ impl SplatLanes {
             colour: s.colour,
             depth: s.depth,
             conic: s.conic,
+            slope: -b / a,
+            ar: a * reach2,
+            k: a * c - b * b,
+            inv_a: 1.0 / a,
         }
     }
+
+    /// The runs of this splat in the tile whose top-left pixel corner is at `(left, top)`:
+    /// each row's span is the columns inside the box `[x0, x1) × [y0, y1)` whose pixel
+    /// centres lie in the blend-threshold ellipse (widened by a thousandth of a pixel, so
+    /// rounding never drops a pixel that passes the threshold test), and only rows whose bit
+    /// is set in `rows` are kept. A trained cloud's splats are small and often elongated:
+    /// their rows' spans are a fraction of the box. `placed` puts a span at most 8 wide under
+    /// one run (the backward's choice); otherwise runs lie at the row's halves (the forward's:
+    /// see [`crate::raster`]). All rows are computed at once, branch-free, as vector code.
+    #[inline(always)]
+    pub fn tile_runs(&self, left: f32, top: f32, rect: [usize; 4], rows: u32, placed: bool) -> TileRuns {
+        let [x0, x1, y0, y1] = rect;
+        let (lo, hi) = (x0 as f32, x1 as f32);
+        let mut out = TileRuns { mask: 0, start: [0; TILE], first: [0.0; TILE], end: [0.0; TILE], left, top };
+        let mut mask = 0u32;
+        for (ly, row_y) in ROW_Y.iter().enumerate() {
+            let dy = top + row_y - self.mean_y;
+            let d = self.ar - self.k * dy * dy;
+            let half = d.max(0.0).sqrt() * self.inv_a * (1.0 + 1e-4) + 1e-3;
+            let centre = self.mean_x - left + self.slope * dy - 0.5;
+            // max/min rather than clamp, whose bounds check would keep the loop scalar.
+            let first = (centre - half).ceil().max(lo).min(hi);
+            let end = ((centre + half).floor() + 1.0).max(first).min(hi);
+            let row = ly as u32;
+            let some = (row >= y0 as u32) & (row < y1 as u32) & ((rows >> row) & 1 != 0) & (d >= 0.0) & (first < end);
+            let half_lanes = LANES as f32;
+            let (one, two, start) = if placed {
+                let wide = end - first > half_lanes;
+                (some, some & wide, if wide { 0.0 } else { first.min(half_lanes) })
+            } else {
+                (some & (first < half_lanes), some & (end > half_lanes), 0.0)
+            };
+            out.first[ly] = first;
+            out.end[ly] = end;
+            // A small whole number to an integer by the same shift as in fast_exp: a
+            // float-to-int conversion saturates in Rust, a dozen instructions per value.
+            const SHIFTER: f32 = 8_388_608.0;
+            out.start[ly] = (start + SHIFTER).to_bits() - SHIFTER.to_bits();
+            mask |= (one as u32 | ((two as u32) << 1)) << (2 * row);
+        }
+        out.mask = mask;
+        out
+    }
 }
+
+/// One splat's runs in one tile: bit `2·ly` of `mask` is row `ly`'s first run, starting at
+/// column `start[ly]`, bit `2·ly + 1` its second, at column 8; the row's span is
+/// `[first, end)` (tile columns).
+#[derive(Clone, Copy, Debug)]
+pub struct TileRuns {
+    /// The runs present.
+    pub mask: u32,
+    start: [u32; TILE],
+    first: [f32; TILE],
+    end: [f32; TILE],
+    left: f32,
+    top: f32,
+}
+
+impl TileRuns {
+    /// Run `bit` of the mask: its offset in the tile's arrays and where it lies.
+    #[inline(always)]
+    pub fn run(&self, bit: u32) -> (usize, Run) {
+        let ly = (bit / 2) as usize;
+        // A row with a second run has its first at column 0.
+        let start = self.start[ly] | ((bit & 1) * LANES as u32);
+        let s = start as f32;
+        let run =
+            Run { x: self.left + s + 0.5, y: self.top + ROW_Y[ly], first: self.first[ly] - s, end: self.end[ly] - s };
+        (ly * TILE + start as usize, run)
+    }
+}
+
+/// Rows of a tile.
+pub const TILE: usize = 16;
+
+/// Each tile row's pixel-centre y offset.
+const ROW_Y: [f32; TILE] = [0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5, 8.5, 9.5, 10.5, 11.5, 12.5, 13.5, 14.5, 15.5];
 
 /// Where a run lies: pixel centre coordinates of its first lane and which lanes the splat's
 /// box covers (`first..end`).

@@ -8,17 +8,25 @@
 //! and in the backward its gradient is summed over the tile's pixels in registers and stored
 //! once per (tile, splat) pair. Those per-pair gradients are then summed per splat in a
 //! fixed order, so results do not depend on the thread count.
+//!
+//! A splat covers a tile row's span (its blend-threshold ellipse cut by the row) with 8-pixel
+//! runs. The forward keeps runs at the rows' halves: a run then reads exactly the lanes an
+//! earlier run stored, which the CPU forwards from its store buffer, while a run shifted
+//! against the stores before it waits for them. The backward, which stores less per run,
+//! places one run over a span at most 8 wide (most splats of a trained cloud are a few pixels
+//! across, and one straddling the tile's middle column would otherwise take two mostly idle
+//! runs).
 
 use lucid_scene::prefetch::prefetch;
 use rayon::prelude::*;
 
-use crate::blend::{BackwardRun, ForwardRun, GradLanes, LANES, Run, SplatLanes, backward_run, forward_run};
+use crate::blend::{BackwardRun, ForwardRun, GradLanes, LANES, SplatLanes, backward_run, forward_run};
 use lucid_scene::simd::wide;
 
 use crate::project::{ProjectedGrad, ProjectedSplat};
 
 /// Tile side in pixels.
-pub const TILE: usize = 16;
+pub use crate::blend::TILE;
 const TILE_PIXELS: usize = TILE * TILE;
 /// Opacity cap: no splat fully hides what is behind it (keeps the backward's division safe).
 pub const MAX_ALPHA: f32 = 0.99;
@@ -166,12 +174,12 @@ struct TileSplat {
 /// `splats[i]` is a cache miss; read as the kernels go, each miss stalled the blending behind
 /// it, while this loop of loads alone keeps many misses in flight.
 #[inline(always)]
-fn gather(splats: &[ProjectedSplat], ids: &[u32], tx: usize, ty: usize, out: &mut [TileSplat; GATHER]) {
+fn gather(splats: &[ProjectedSplat], ids: &[u32], tx: usize, ty: usize, min_alpha: f32, out: &mut [TileSplat; GATHER]) {
     for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
         prefetch_ahead(splats, ids, k);
         let s = &splats[i as usize];
         let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-        *slot = TileSplat { lanes: SplatLanes::new(s), rect: [x0 as u8, x1 as u8, y0 as u8, y1 as u8] };
+        *slot = TileSplat { lanes: SplatLanes::new(s, min_alpha), rect: [x0 as u8, x1 as u8, y0 as u8, y1 as u8] };
     }
 }
 
@@ -250,6 +258,8 @@ pub fn rasterize(
                             live[k / LANES] -= 1;
                         }
                     }
+                    let mut live_runs = live.iter().enumerate().fold(0u32, |m, (k, &n)| m | (((n > 0) as u32) << k));
+                    let (left, top) = ((tx * TILE) as f32, (ty * TILE) as f32);
                     let mut blends = 0u64;
                     let list = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
                     let mut blended_pairs = vec![false; list.len()];
@@ -259,32 +269,36 @@ pub fn rasterize(
                         }
                         prefetch_ahead(splats, list, j);
                         let s = &splats[i as usize];
-                        let lanes_of = SplatLanes::new(s);
+                        let lanes_of = SplatLanes::new(s, min_alpha);
                         let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                        for ly in y0..y1 {
-                            for (o, run) in aligned_runs(tx, ty, ly, x0, x1) {
-                                if live[o / LANES] == 0 {
-                                    continue;
-                                }
-                                let [r, g, b] = &mut rgb;
-                                let (blended, stopped) = forward_run(
-                                    &lanes_of,
-                                    j as u32 + 1,
-                                    run,
-                                    min_alpha,
-                                    ForwardRun {
-                                        trans: lanes_mut(&mut trans, o),
-                                        rgb: [lanes_mut(r, o), lanes_mut(g, o), lanes_mut(b, o)],
-                                        depth: lanes_mut(&mut depth, o),
-                                        last: lanes_mut(&mut last, o),
-                                        done: lanes_mut(&mut done, o),
-                                    },
-                                );
-                                blends += blended as u64;
-                                blended_pairs[j] |= blended > 0;
-                                n_done += stopped as usize;
-                                live[o / LANES] -= stopped;
-                            }
+                        let runs = lanes_of.tile_runs(left, top, [x0, x1, y0, y1], u32::MAX, false);
+                        // One bit per run, found by bit scan: a loop over rows and runs
+                        // mispredicted about once per row.
+                        let mut pending = runs.mask & live_runs;
+                        while pending != 0 {
+                            let bit = pending.trailing_zeros();
+                            pending &= pending - 1;
+                            let (o, run) = runs.run(bit);
+                            let [r, g, b] = &mut rgb;
+                            let (blended, stopped) = forward_run(
+                                &lanes_of,
+                                j as u32 + 1,
+                                run,
+                                min_alpha,
+                                ForwardRun {
+                                    trans: lanes_mut(&mut trans, o),
+                                    rgb: [lanes_mut(r, o), lanes_mut(g, o), lanes_mut(b, o)],
+                                    depth: lanes_mut(&mut depth, o),
+                                    last: lanes_mut(&mut last, o),
+                                    done: lanes_mut(&mut done, o),
+                                },
+                            );
+                            blends += blended as u64;
+                            blended_pairs[j] |= blended > 0;
+                            n_done += stopped as usize;
+                            // Forward runs lie at the rows' halves: run `bit` is `live[bit]`.
+                            live[bit as usize] -= stopped;
+                            live_runs &= !(((live[bit as usize] == 0) as u32) << bit);
                         }
                     }
                     (trans, rgb, last, depth, blends, blended_pairs)
@@ -314,50 +328,6 @@ pub fn rasterize(
         }
     }
     (image, state)
-}
-
-/// The (up to two) 8-pixel runs of tile row `ly`, at the row's halves, that meet the local
-/// box columns `[x0, x1)`, with their offsets in the tile's arrays. The forward keeps runs at
-/// fixed places: a run then reads exactly the lanes an earlier run stored, which the CPU
-/// forwards from its store buffer; a run shifted against the stores before it waits for them.
-#[inline(always)]
-fn aligned_runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
-    (0..TILE / LANES).filter_map(move |c| {
-        let (lo, hi) = (c * LANES, (c + 1) * LANES);
-        (x0 < hi && x1 > lo).then(|| {
-            let run = Run {
-                x: (tx * TILE + lo) as f32 + 0.5,
-                y: (ty * TILE + ly) as f32 + 0.5,
-                first: x0.saturating_sub(lo) as f32,
-                end: (x1.min(hi) - lo) as f32,
-            };
-            (ly * TILE + lo, run)
-        })
-    })
-}
-
-/// The 8-pixel runs of tile row `ly` that cover the local box columns `[x0, x1)`, with their
-/// offsets in the tile's arrays: one run placed over a box at most 8 wide (most splats of a
-/// trained cloud are a few pixels across, and one straddling the tile's middle column would
-/// otherwise take two mostly idle runs), else the row's two halves.
-#[inline(always)]
-fn runs(tx: usize, ty: usize, ly: usize, x0: usize, x1: usize) -> impl Iterator<Item = (usize, Run)> {
-    let (starts, count) = if x1 <= x0 {
-        ([0, 0], 0)
-    } else if x1 - x0 <= LANES {
-        ([x0.min(TILE - LANES), 0], 1)
-    } else {
-        ([0, LANES], 2)
-    };
-    starts.into_iter().take(count).map(move |lo| {
-        let run = Run {
-            x: (tx * TILE + lo) as f32 + 0.5,
-            y: (ty * TILE + ly) as f32 + 0.5,
-            first: x0.saturating_sub(lo) as f32,
-            end: (x1.min(lo + LANES) - lo) as f32,
-        };
-        (ly * TILE + lo, run)
-    })
 }
 
 #[inline(always)]
@@ -423,10 +393,11 @@ pub fn rasterize_backward(
                 }
                 let max_contrib = row_contrib.iter().copied().max().unwrap_or(0) as usize;
                 let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
+                let (left, top) = ((tx * TILE) as f32, (ty * TILE) as f32);
                 let mut block = [TileSplat::default(); GATHER];
                 for start in (0..max_contrib).step_by(GATHER).rev() {
                     let end = (start + GATHER).min(max_contrib);
-                    gather(splats, &ids[start..end], tx, ty, &mut block);
+                    gather(splats, &ids[start..end], tx, ty, min_alpha, &mut block);
                     for j in (start..end).rev() {
                         if !blended_pairs[j] {
                             continue;
@@ -434,29 +405,32 @@ pub fn rasterize_backward(
                         let ts = &block[j - start];
                         let lanes_of = &ts.lanes;
                         let mut acc = GradLanes::default();
-                        let [x0, x1, y0, y1] = ts.rect.map(usize::from);
-                        for (ly, &contrib) in row_contrib.iter().enumerate().take(y1).skip(y0) {
-                            if j as u32 >= contrib {
-                                continue;
-                            }
-                            for (o, run) in runs(tx, ty, ly, x0, x1) {
-                                let [br, bg, bb] = &mut behind;
-                                let [d0, d1, d2, d3] = &dout;
-                                backward_run(
-                                    lanes_of,
-                                    j as u32,
-                                    run,
-                                    min_alpha,
-                                    BackwardRun {
-                                        trans: lanes_mut(&mut trans, o),
-                                        t_final: lanes(&t_final, o),
-                                        n_contrib: lanes(&n_contrib, o),
-                                        dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
-                                        behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
-                                    },
-                                    &mut acc,
-                                );
-                            }
+                        let rows = row_contrib
+                            .iter()
+                            .enumerate()
+                            .fold(0u32, |m, (ly, &c)| m | (((j as u32) < c) as u32) << ly);
+                        let runs = lanes_of.tile_runs(left, top, ts.rect.map(usize::from), rows, true);
+                        let mut pending = runs.mask;
+                        while pending != 0 {
+                            let bit = pending.trailing_zeros();
+                            pending &= pending - 1;
+                            let (o, run) = runs.run(bit);
+                            let [br, bg, bb] = &mut behind;
+                            let [d0, d1, d2, d3] = &dout;
+                            backward_run(
+                                lanes_of,
+                                j as u32,
+                                run,
+                                min_alpha,
+                                BackwardRun {
+                                    trans: lanes_mut(&mut trans, o),
+                                    t_final: lanes(&t_final, o),
+                                    n_contrib: lanes(&n_contrib, o),
+                                    dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
+                                    behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
+                                },
+                                &mut acc,
+                            );
                         }
                         grads[j] = acc.total();
                     }
