@@ -8,11 +8,14 @@
 //! fused multiply-adds are enabled), so results are bit-identical either way. Whatever the
 //! closure calls must be inlined into it (`#[inline(always)]`) to be compiled for AVX2 too.
 
-/// Calls `f`, compiled for AVX2 if this CPU has it.
+/// Calls `f`, compiled for AVX2 (with the bit-count instructions) if this CPU has it.
 #[inline(always)]
 pub fn wide<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("popcnt")
+        && std::arch::is_x86_feature_detected!("bmi1")
+    {
         // An AVX2 function may only run on a CPU with AVX2, which the line above checked.
         #[allow(unsafe_code)]
         return unsafe { with_avx2(f) };
@@ -21,7 +24,8 @@ pub fn wide<R>(f: impl FnOnce() -> R) -> R {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+// popcnt and bmi1 (bit counts and scans for lane masks) come with every AVX2 CPU.
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }

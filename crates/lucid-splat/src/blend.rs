@@ -29,13 +29,14 @@ pub fn fast_exp(x: f32) -> f32 {
     let t = x * std::f32::consts::LOG2_E + SHIFTER;
     let n = t - SHIFTER;
     let r = x - n * 0.693_359_4 + n * 2.121_944_4e-4;
-    let mut p = 1.987_569_1e-4f32;
-    p = p * r + 1.398_2e-3;
-    p = p * r + 8.333_452e-3;
-    p = p * r + 4.166_579_6e-2;
-    p = p * r + 0.166_666_65;
-    p = p * r + 0.5;
-    let e = p * r * r + r + 1.0;
+    // The polynomial by Estrin's scheme, not Horner's: a blend kernel is one long chain of
+    // dependent operations per run, and this halves the exponential's part of it.
+    let r2 = r * r;
+    let low = 0.5 + 0.166_666_65 * r;
+    let mid = 4.166_579_6e-2 + 8.333_452e-3 * r;
+    let high = 1.398_2e-3 + 1.987_569_1e-4 * r;
+    let p = low + r2 * (mid + r2 * high);
+    let e = p * r2 + r + 1.0;
     let n_int = t.to_bits() as i32 - SHIFTER.to_bits() as i32;
     e * f32::from_bits(((n_int + 127) << 23) as u32)
 }
@@ -90,42 +91,82 @@ impl SplatLanes {
     /// is set in `rows` are kept. A trained cloud's splats are small and often elongated:
     /// their rows' spans are a fraction of the box. `placed` puts a span at most 8 wide under
     /// one run (the backward's choice); otherwise runs lie at the row's halves (the forward's:
-    /// see [`crate::raster`]). All rows are computed at once, branch-free, as vector code.
+    /// see [`crate::raster`]). Rows go eight at a time, branch-free, as vector code: one
+    /// group for a box at most 8 rows high, which most are.
     #[inline(always)]
     pub fn tile_runs(&self, left: f32, top: f32, rect: [usize; 4], rows: u32, placed: bool) -> TileRuns {
         let [x0, x1, y0, y1] = rect;
-        let (lo, hi) = (x0 as f32, x1 as f32);
         let mut out = TileRuns { mask: 0, start: [0; TILE], first: [0.0; TILE], end: [0.0; TILE], left, top };
-        let mut mask = 0u32;
-        for (ly, row_y) in ROW_Y.iter().enumerate() {
-            let dy = top + row_y - self.mean_y;
-            let d = self.ar - self.k * dy * dy;
-            let half = d.max(0.0).sqrt() * self.inv_a * (1.0 + 1e-4) + 1e-3;
-            let centre = self.mean_x - left + self.slope * dy - 0.5;
-            // max/min rather than clamp, whose bounds check would keep the loop scalar.
-            let first = (centre - half).ceil().max(lo).min(hi);
-            let end = ((centre + half).floor() + 1.0).max(first).min(hi);
-            let row = ly as u32;
-            let some = (row >= y0 as u32) & (row < y1 as u32) & ((rows >> row) & 1 != 0) & (d >= 0.0) & (first < end);
-            let half_lanes = LANES as f32;
-            let (one, two, start) = if placed {
-                let wide = end - first > half_lanes;
-                (some, some & wide, if wide { 0.0 } else { first.min(half_lanes) })
-            } else {
-                (some & (first < half_lanes), some & (end > half_lanes), 0.0)
-            };
-            out.first[ly] = first;
-            out.end[ly] = end;
-            // A small whole number to an integer by the same shift as in fast_exp: a
-            // float-to-int conversion saturates in Rust, a dozen instructions per value.
-            const SHIFTER: f32 = 8_388_608.0;
-            out.start[ly] = (start + SHIFTER).to_bits() - SHIFTER.to_bits();
-            mask |= (one as u32 | ((two as u32) << 1)) << (2 * row);
+        if x0 >= x1 || y0 >= y1 {
+            return out;
         }
-        out.mask = mask;
+        let (lo, hi) = (x0 as f32, x1 as f32);
+        let window = if y1 - y0 <= LANES { y0.min(TILE - LANES) } else { 0 };
+        let groups = if y1 - y0 <= LANES { 1 } else { 2 };
+        let mut mask = 0u32;
+        for g in 0..groups {
+            let r0 = window + g * LANES;
+            let (mut one, mut two) = (0u32, 0u32);
+            let first_out: &mut [f32; LANES] = (&mut out.first[r0..r0 + LANES]).try_into().expect("8 rows");
+            let end_out: &mut [f32; LANES] = (&mut out.end[r0..r0 + LANES]).try_into().expect("8 rows");
+            let start_out: &mut [u32; LANES] = (&mut out.start[r0..r0 + LANES]).try_into().expect("8 rows");
+            let row_top = top + r0 as f32 + 0.5 - self.mean_y;
+            for l in 0..LANES {
+                let dy = row_top + LANE_X[l];
+                let d = self.ar - self.k * dy * dy;
+                // Outside the ellipse's rows an empty span (first past every column).
+                let reach = d.max(0.0).sqrt() * self.inv_a * (1.0 + 1e-4) + 1e-3;
+                let half = if d >= 0.0 { reach } else { -100.0 };
+                let centre = self.mean_x - left + self.slope * dy - 0.5;
+                // max/min rather than clamp, whose bounds check would keep the loop scalar.
+                let first = (centre - half).ceil().max(lo);
+                let end = ((centre + half).floor() + 1.0).min(hi);
+                let half_lanes = LANES as f32;
+                let (a, b, start) = if placed {
+                    let wide = end - first > half_lanes;
+                    (first < end, wide & (first < end), if wide { 0.0 } else { first.min(half_lanes) })
+                } else {
+                    (first < end.min(half_lanes), first.max(half_lanes) < end, 0.0)
+                };
+                first_out[l] = first;
+                end_out[l] = end;
+                // A small whole number to an integer by the same shift as in fast_exp: a
+                // float-to-int conversion saturates in Rust, a dozen instructions per value.
+                const SHIFTER: f32 = 8_388_608.0;
+                start_out[l] = (start + SHIFTER).to_bits() - SHIFTER.to_bits();
+                one |= (a as u32) << l;
+                two |= (b as u32) << l;
+            }
+            mask |= (spread(one) | (spread(two) << 1)) << (2 * r0);
+        }
+        let row_range = (1u32 << y1).wrapping_sub(1) & !((1u32 << y0) - 1) & rows;
+        // Both runs of each row in range.
+        let row_runs = spread(row_range) * 3;
+        out.mask = mask & row_runs;
         out
     }
 }
+
+/// Bit `i` of `bits` (16 at most) moved to bit `2i`: row bits to the bits of their first runs.
+#[inline(always)]
+fn spread(bits: u32) -> u32 {
+    SPREAD[(bits & 0xff) as usize] as u32 | (SPREAD[(bits >> 8 & 0xff) as usize] as u32) << 16
+}
+
+/// Each byte's bits spread to the even bits of a 16-bit word.
+const SPREAD: [u16; 256] = {
+    let mut t = [0u16; 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut b = 0;
+        while b < 8 {
+            t[i] |= (((i >> b) & 1) as u16) << (2 * b);
+            b += 1;
+        }
+        i += 1;
+    }
+    t
+};
 
 /// One splat's runs in one tile: bit `2·ly` of `mask` is row `ly`'s first run, starting at
 /// column `start[ly]`, bit `2·ly + 1` its second, at column 8; the row's span is
@@ -190,13 +231,15 @@ pub struct ForwardRun<'a> {
     pub done: &'a mut [u32; LANES],
 }
 
-/// Blends splat number `index` of the tile into a run; returns `(blends, pixels stopped)`.
+/// Blends splat number `index` of the tile into a run; returns the lanes it blended into, one
+/// bit each, and whether every pixel of the run has now stopped.
 #[inline(always)]
-pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: ForwardRun<'_>) -> (u32, u32) {
+pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: ForwardRun<'_>) -> (u32, bool) {
     let dy = run.y - s.mean_y;
     let (cy, by) = (s.qc * dy * dy, s.qb * dy);
     let dx0 = run.x - s.mean_x;
-    let (mut blends, mut stopped) = (0u32, 0u32);
+    let index = index as f32;
+    let (mut blended, mut stopped) = (0u32, 0u32);
     // Local copies: the compiler cannot prove that references held in a struct do not alias,
     // and would not vectorise the loop over them.
     let [pr, pg, pb] = px.rgb;
@@ -222,15 +265,19 @@ pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: For
         b[l] += s.colour[2] * w;
         depth[l] += s.depth * w;
         trans[l] = t * (1.0 - alpha * on);
-        // Indices only grow along the tile's list.
-        last[l] = last[l].max(on * index as f32);
+        // Indices only grow along the tile's list. A compare-and-pick is one max instruction;
+        // `f32::max` adds a NaN check.
+        let candidate = on * index;
+        last[l] = if candidate > last[l] { candidate } else { last[l] };
         done[l] |= stop as u32;
-        blends += blend as u32;
-        stopped += stop as u32;
+        // Bit masks, which become one move-mask instruction each: summing the flags instead
+        // compiled to a dozen shuffles per run.
+        blended |= (blend as u32) << l;
+        stopped |= ((done[l] != 0) as u32) << l;
     }
     (*pr, *pg, *pb) = (r, g, b);
     (*px.trans, *px.depth, *px.last, *px.done) = (trans, depth, last, done);
-    (blends, stopped)
+    (blended, stopped == (1 << LANES) - 1)
 }
 
 /// Per-pixel backward state of one run.

@@ -42,7 +42,7 @@ pub struct TileBins {
     pub tiles_y: usize,
     /// `offsets[t]..offsets[t+1]` indexes `ids` for tile `t` (row-major tiles).
     pub offsets: Vec<usize>,
-    /// Splat index of each (tile, splat) pair.
+    /// Rank in `splats` (its place in depth order) of each (tile, splat) pair's splat.
     pub ids: Vec<u32>,
     /// The binned splats, nearest first.
     pub splats: Vec<u32>,
@@ -96,17 +96,50 @@ fn tile_rect(s: &ProjectedSplat, tiles_x: usize, tiles_y: usize) -> (usize, usiz
     (x0, x1, y0, y1)
 }
 
-/// The splat's pixel box inside tile `(tx, ty)`, in tile-local coordinates `[x0, x1) × [y0, y1)`.
-#[inline]
-fn local_rect(s: &ProjectedSplat, tx: usize, ty: usize) -> (usize, usize, usize, usize) {
-    let clip = |mean: f32, half: f32, origin: usize| {
+/// The pixel box `[x0, x1) × [y0, y1)` of a splat, kept within a tile of the image's edges
+/// (a splat close to the camera can reach far beyond them).
+fn pixel_rect(s: &ProjectedSplat, width: usize, height: usize) -> [i32; 4] {
+    let clip = |mean: f32, half: f32, size: usize| {
         let (a, b) = pixel_span(mean, half);
-        let (a, b) = (a - origin as i64, b - origin as i64 + 1);
-        (a.clamp(0, TILE as i64) as usize, b.clamp(0, TILE as i64) as usize)
+        let reach = (size + TILE) as i64;
+        (a.clamp(-1, reach) as i32, (b + 1).clamp(-1, reach) as i32)
     };
-    let (x0, x1) = clip(s.mean.x, s.half_extent.x, tx * TILE);
-    let (y0, y1) = clip(s.mean.y, s.half_extent.y, ty * TILE);
-    (x0, x1, y0, y1)
+    let (x0, x1) = clip(s.mean.x, s.half_extent.x, width);
+    let (y0, y1) = clip(s.mean.y, s.half_extent.y, height);
+    [x0, x1, y0, y1]
+}
+
+/// A binned splat ready for the kernels: its constants and its pixel box.
+#[derive(Clone, Copy, Debug, Default)]
+struct PreparedSplat {
+    lanes: SplatLanes,
+    rect: [i32; 4],
+}
+
+impl PreparedSplat {
+    /// The box inside the tile with top-left pixel `origin`, in tile pixels.
+    #[inline(always)]
+    fn tile_rect(&self, origin: [i32; 2]) -> [usize; 4] {
+        let [x0, x1, y0, y1] = self.rect;
+        let clip = |v: i32, o: i32| (v - o).clamp(0, TILE as i32) as usize;
+        [clip(x0, origin[0]), clip(x1, origin[0]), clip(y0, origin[1]), clip(y1, origin[1])]
+    }
+}
+
+/// The binned splats in depth order, each prepared once per call rather than once per tile
+/// it touches; the tile lists then read this array in ascending order.
+fn prepare(splats: &[ProjectedSplat], bins: &TileBins, min_alpha: f32) -> Vec<PreparedSplat> {
+    let (width, height) = (bins.tiles_x * TILE, bins.tiles_y * TILE);
+    let mut out = vec![PreparedSplat::default(); bins.splats.len()];
+    // The binned splats are in depth order, so `splats[i]` is a cache miss each: prefetched.
+    out.par_chunks_mut(1024).zip(bins.splats.par_chunks(1024)).for_each(|(out, ids)| {
+        for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
+            prefetch_ahead(splats, ids, k);
+            let s = &splats[i as usize];
+            *slot = PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
+        }
+    });
+    out
 }
 
 /// Bins the splats of a `width × height` image: each tile lists the splats whose 3σ square
@@ -142,11 +175,11 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     let mut splat_offsets = Vec::with_capacity(rects.len() + 1);
     let mut splat_pairs = Vec::with_capacity(pairs);
     splat_offsets.push(0);
-    for &(i, (x0, x1, y0, y1)) in &rects {
+    for (rank, &(_, (x0, x1, y0, y1))) in rects.iter().enumerate() {
         for ty in y0..y1 {
             for tx in x0..x1 {
                 let t = ty * tiles_x + tx;
-                ids[cursor[t]] = i;
+                ids[cursor[t]] = rank as u32;
                 splat_pairs.push(cursor[t] as u32);
                 cursor[t] += 1;
             }
@@ -157,36 +190,14 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     TileBins { tiles_x, tiles_y, offsets, ids, splats, splat_offsets, splat_pairs }
 }
 
-/// Splats per block that the kernels gather before compositing them.
-const GATHER: usize = 64;
-/// How many splats ahead the gather prefetches.
+/// How many entries of a tile's list ahead the kernels prefetch.
 const PREFETCH_AHEAD: usize = 8;
 
-/// A splat of a tile's list ready for the kernels: its constants and its box in the tile.
-#[derive(Clone, Copy, Debug, Default)]
-struct TileSplat {
-    lanes: SplatLanes,
-    /// `[x0, x1, y0, y1]` in tile pixels (at most [`TILE`]).
-    rect: [u8; 4],
-}
-
-/// Copies the splats `ids` of tile `(tx, ty)` into `out`. The list is in depth order, so each
-/// `splats[i]` is a cache miss; read as the kernels go, each miss stalled the blending behind
-/// it, while this loop of loads alone keeps many misses in flight.
-#[inline(always)]
-fn gather(splats: &[ProjectedSplat], ids: &[u32], tx: usize, ty: usize, min_alpha: f32, out: &mut [TileSplat; GATHER]) {
-    for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
-        prefetch_ahead(splats, ids, k);
-        let s = &splats[i as usize];
-        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-        *slot = TileSplat { lanes: SplatLanes::new(s, min_alpha), rect: [x0 as u8, x1 as u8, y0 as u8, y1 as u8] };
-    }
-}
-
 /// Before `splats[ids[k]]` is read, asks the cache for the record [`PREFETCH_AHEAD`] entries
-/// further down the list (and, at the first entry, for the ones before that).
+/// further down the list (and, at the first entry, for the ones before that): a tile's list
+/// skips through the array, too sparsely for the hardware prefetcher.
 #[inline(always)]
-fn prefetch_ahead(splats: &[ProjectedSplat], ids: &[u32], k: usize) {
+fn prefetch_ahead<T>(splats: &[T], ids: &[u32], k: usize) {
     if k == 0 {
         for &i in &ids[..ids.len().min(PREFETCH_AHEAD)] {
             prefetch(splats, i as usize);
@@ -235,6 +246,7 @@ pub fn rasterize(
     background: [f32; 3],
     min_alpha: f32,
 ) -> (Vec<f32>, PixelState) {
+    let prepared = prepare(splats, bins, min_alpha);
     let tiles: Vec<_> = (0..bins.tiles_x * bins.tiles_y)
         .into_par_iter()
         .map(|t| {
@@ -242,36 +254,37 @@ pub fn rasterize(
                 #[inline(always)]
                 || {
                     let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-                    let mut trans = [1.0f32; TILE_PIXELS];
-                    let mut rgb = [[0.0f32; TILE_PIXELS]; 3];
-                    let mut depth = [0.0f32; TILE_PIXELS];
-                    let mut last = [0f32; TILE_PIXELS];
-                    let mut done = [0u32; TILE_PIXELS];
-                    let mut n_done = 0;
-                    // Pixels still blending per run: runs whose pixels have all stopped are
-                    // skipped (behind an opaque surface most of a tile's list is).
-                    let mut live = [LANES as u32; TILE_PIXELS / LANES];
+                    let mut trans = TileArray([1.0f32; TILE_PIXELS]);
+                    let mut rgb = [TileArray([0.0f32; TILE_PIXELS]); 3];
+                    let mut depth = TileArray([0.0f32; TILE_PIXELS]);
+                    let mut last = TileArray([0f32; TILE_PIXELS]);
+                    let mut done = TileArray([0u32; TILE_PIXELS]);
+                    // Runs with a pixel still blending, one bit each (forward runs lie at the
+                    // rows' halves: bit `k` is the run at offset `8k`): runs whose pixels have
+                    // all stopped are skipped (behind an opaque surface most of a tile's list
+                    // is), and the tile ends when none is left.
+                    let mut live_runs = u32::MAX;
                     for (k, d) in done.iter_mut().enumerate() {
                         if tx * TILE + k % TILE >= width || ty * TILE + k / TILE >= height {
                             *d = 1;
-                            n_done += 1;
-                            live[k / LANES] -= 1;
                         }
                     }
-                    let mut live_runs = live.iter().enumerate().fold(0u32, |m, (k, &n)| m | (((n > 0) as u32) << k));
+                    for (k, run) in done.chunks_exact(LANES).enumerate() {
+                        live_runs &= !((run.iter().all(|&d| d != 0) as u32) << k);
+                    }
                     let (left, top) = ((tx * TILE) as f32, (ty * TILE) as f32);
+                    let origin = [(tx * TILE) as i32, (ty * TILE) as i32];
                     let mut blends = 0u64;
                     let list = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
                     let mut blended_pairs = vec![false; list.len()];
                     for (j, &i) in list.iter().enumerate() {
-                        if n_done == TILE_PIXELS {
+                        if live_runs == 0 {
                             break;
                         }
-                        prefetch_ahead(splats, list, j);
-                        let s = &splats[i as usize];
-                        let lanes_of = SplatLanes::new(s, min_alpha);
-                        let (x0, x1, y0, y1) = local_rect(s, tx, ty);
-                        let runs = lanes_of.tile_runs(left, top, [x0, x1, y0, y1], u32::MAX, false);
+                        prefetch_ahead(&prepared, list, j);
+                        let ps = &prepared[i as usize];
+                        let lanes_of = &ps.lanes;
+                        let runs = lanes_of.tile_runs(left, top, ps.tile_rect(origin), u32::MAX, false);
                         // One bit per run, found by bit scan: a loop over rows and runs
                         // mispredicted about once per row.
                         let mut pending = runs.mask & live_runs;
@@ -281,7 +294,7 @@ pub fn rasterize(
                             let (o, run) = runs.run(bit);
                             let [r, g, b] = &mut rgb;
                             let (blended, stopped) = forward_run(
-                                &lanes_of,
+                                lanes_of,
                                 j as u32 + 1,
                                 run,
                                 min_alpha,
@@ -293,12 +306,9 @@ pub fn rasterize(
                                     done: lanes_mut(&mut done, o),
                                 },
                             );
-                            blends += blended as u64;
-                            blended_pairs[j] |= blended > 0;
-                            n_done += stopped as usize;
-                            // Forward runs lie at the rows' halves: run `bit` is `live[bit]`.
-                            live[bit as usize] -= stopped;
-                            live_runs &= !(((live[bit as usize] == 0) as u32) << bit);
+                            blends += blended.count_ones() as u64;
+                            blended_pairs[j] |= blended != 0;
+                            live_runs &= !((stopped as u32) << bit);
                         }
                     }
                     (trans, rgb, last, depth, blends, blended_pairs)
@@ -330,6 +340,26 @@ pub fn rasterize(
     (image, state)
 }
 
+/// A tile's values of one kind, aligned to a cache line: a tile row is then one line, so no
+/// run's loads or stores are split across two (a split store is not forwarded to the loads
+/// after it, and the next splat's run waits for it to reach the cache).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct TileArray<T>([T; TILE_PIXELS]);
+
+impl<T> std::ops::Deref for TileArray<T> {
+    type Target = [T; TILE_PIXELS];
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl<T> std::ops::DerefMut for TileArray<T> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
 #[inline(always)]
 fn lanes_mut<T>(a: &mut [T; TILE_PIXELS], o: usize) -> &mut [T; LANES] {
     (&mut a[o..o + LANES]).try_into().expect("runs lie inside the tile")
@@ -354,6 +384,7 @@ pub fn rasterize_backward(
     grad_image: &[f32],
 ) -> Vec<ProjectedGrad> {
     assert_eq!(grad_image.len(), width * height * 4, "image gradient must be H×W×4");
+    let prepared = prepare(splats, bins, min_alpha);
     // One gradient per (tile, splat) pair, each tile writing its own slice.
     let mut flat = vec![ProjectedGrad::default(); bins.pairs()];
     let mut slices: Vec<&mut [ProjectedGrad]> = Vec::with_capacity(bins.tiles_x * bins.tiles_y);
@@ -369,13 +400,13 @@ pub fn rasterize_backward(
             || {
                 let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
                 let blended_pairs = &state.blended_pairs[bins.offsets[t]..bins.offsets[t + 1]];
-                let mut trans = [0.0f32; TILE_PIXELS];
-                let mut t_final = [0.0f32; TILE_PIXELS];
-                let mut n_contrib = [0u32; TILE_PIXELS];
-                let mut dout = [[0.0f32; TILE_PIXELS]; 4];
+                let mut trans = TileArray([0.0f32; TILE_PIXELS]);
+                let mut t_final = TileArray([0.0f32; TILE_PIXELS]);
+                let mut n_contrib = TileArray([0u32; TILE_PIXELS]);
+                let mut dout = [TileArray([0.0f32; TILE_PIXELS]); 4];
                 // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
                 // behind splat i, seeded with the background's share.
-                let mut behind = [[0.0f32; TILE_PIXELS]; 3];
+                let mut behind = [TileArray([0.0f32; TILE_PIXELS]); 3];
                 // Per tile row, the most contributors of its pixels: a splat at or past it
                 // touches none of them (every lane would be masked off), so the row is skipped.
                 let mut row_contrib = [0u32; TILE];
@@ -394,22 +425,23 @@ pub fn rasterize_backward(
                 let max_contrib = row_contrib.iter().copied().max().unwrap_or(0) as usize;
                 let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
                 let (left, top) = ((tx * TILE) as f32, (ty * TILE) as f32);
-                let mut block = [TileSplat::default(); GATHER];
-                for start in (0..max_contrib).step_by(GATHER).rev() {
-                    let end = (start + GATHER).min(max_contrib);
-                    gather(splats, &ids[start..end], tx, ty, min_alpha, &mut block);
-                    for j in (start..end).rev() {
+                let origin = [(tx * TILE) as i32, (ty * TILE) as i32];
+                {
+                    for j in (0..max_contrib).rev() {
+                        if j >= PREFETCH_AHEAD {
+                            prefetch(&prepared, ids[j - PREFETCH_AHEAD] as usize);
+                        }
                         if !blended_pairs[j] {
                             continue;
                         }
-                        let ts = &block[j - start];
-                        let lanes_of = &ts.lanes;
+                        let ps = &prepared[ids[j] as usize];
+                        let lanes_of = &ps.lanes;
                         let mut acc = GradLanes::default();
                         let rows = row_contrib
                             .iter()
                             .enumerate()
                             .fold(0u32, |m, (ly, &c)| m | (((j as u32) < c) as u32) << ly);
-                        let runs = lanes_of.tile_runs(left, top, ts.rect.map(usize::from), rows, true);
+                        let runs = lanes_of.tile_runs(left, top, ps.tile_rect(origin), rows, true);
                         let mut pending = runs.mask;
                         while pending != 0 {
                             let bit = pending.trailing_zeros();
