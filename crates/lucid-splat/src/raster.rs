@@ -464,7 +464,7 @@ pub fn rasterize_backward(
                                 &mut acc,
                             );
                         }
-                        grads[j] = acc.total();
+                        grads[j] = acc.total(lanes_of);
                     }
                 }
             },
