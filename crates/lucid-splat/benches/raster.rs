@@ -6,6 +6,11 @@
 
 use std::time::Instant;
 
+// As in the `lucid` binary: glibc malloc hands large freed buffers back to the OS, and the
+// next call's page faults would be timed as rasterizing.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use glam::Vec3;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_splat::project::{RenderSettings, project_backward_one, project_one};

@@ -111,7 +111,7 @@ fn pixel_rect(s: &ProjectedSplat, width: usize, height: usize) -> [i32; 4] {
 
 /// A binned splat ready for the kernels: its constants and its pixel box.
 #[derive(Clone, Copy, Debug, Default)]
-struct PreparedSplat {
+pub struct PreparedSplat {
     lanes: SplatLanes,
     rect: [i32; 4],
 }
@@ -225,6 +225,9 @@ pub struct PixelState {
     /// into any pixel of the tile. The others (a box corner the footprint does not reach,
     /// pixels already stopped) have a zero gradient, and the backward skips them.
     pub blended_pairs: Vec<bool>,
+    /// The binned splats as the kernels read them, in depth order (built by the forward,
+    /// reused by the backward).
+    pub prepared: Vec<PreparedSplat>,
 }
 
 /// The image pixels of tile `t`: `(index in the tile, index in the image)`.
@@ -323,6 +326,7 @@ pub fn rasterize(
         depth: vec![0.0; width * height],
         blends: 0,
         blended_pairs: Vec::with_capacity(bins.pairs()),
+        prepared: Vec::new(),
     };
     for (t, (trans, rgb, last, depth, blends, blended_pairs)) in tiles.iter().enumerate() {
         state.blends += blends;
@@ -337,6 +341,7 @@ pub fn rasterize(
             state.depth[idx] = depth[k];
         }
     }
+    state.prepared = prepared;
     (image, state)
 }
 
@@ -384,7 +389,14 @@ pub fn rasterize_backward(
     grad_image: &[f32],
 ) -> Vec<ProjectedGrad> {
     assert_eq!(grad_image.len(), width * height * 4, "image gradient must be H×W×4");
-    let prepared = prepare(splats, bins, min_alpha);
+    // The forward's prepared splats, unless the state came from elsewhere.
+    let own;
+    let prepared = if state.prepared.len() == bins.splats.len() {
+        &state.prepared
+    } else {
+        own = prepare(splats, bins, min_alpha);
+        &own
+    };
     // One gradient per (tile, splat) pair, each tile writing its own slice.
     let mut flat = vec![ProjectedGrad::default(); bins.pairs()];
     let mut slices: Vec<&mut [ProjectedGrad]> = Vec::with_capacity(bins.tiles_x * bins.tiles_y);
