@@ -441,7 +441,7 @@ pub fn rasterize_backward(
                 {
                     for j in (0..max_contrib).rev() {
                         if j >= PREFETCH_AHEAD {
-                            prefetch(&prepared, ids[j - PREFETCH_AHEAD] as usize);
+                            prefetch(prepared, ids[j - PREFETCH_AHEAD] as usize);
                         }
                         if !blended_pairs[j] {
                             continue;
