@@ -65,7 +65,7 @@ pub struct SplatLanes {
 
 impl SplatLanes {
     /// The kernel constants of a projected splat.
-    #[inline]
+    #[inline(always)]
     pub fn new(s: &ProjectedSplat, min_alpha: f32) -> Self {
         let [a, b, c] = s.conic;
         let log_opacity = s.opacity.ln();

@@ -98,6 +98,7 @@ fn tile_rect(s: &ProjectedSplat, tiles_x: usize, tiles_y: usize) -> (usize, usiz
 
 /// The pixel box `[x0, x1) × [y0, y1)` of a splat, kept within a tile of the image's edges
 /// (a splat close to the camera can reach far beyond them).
+#[inline(always)]
 fn pixel_rect(s: &ProjectedSplat, width: usize, height: usize) -> [i32; 4] {
     let clip = |mean: f32, half: f32, size: usize| {
         let (a, b) = pixel_span(mean, half);
@@ -133,11 +134,16 @@ fn prepare(splats: &[ProjectedSplat], bins: &TileBins, min_alpha: f32) -> Vec<Pr
     let mut out = vec![PreparedSplat::default(); bins.splats.len()];
     // The binned splats are in depth order, so `splats[i]` is a cache miss each: prefetched.
     out.par_chunks_mut(1024).zip(bins.splats.par_chunks(1024)).for_each(|(out, ids)| {
-        for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
-            prefetch_ahead(splats, ids, k);
-            let s = &splats[i as usize];
-            *slot = PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
-        }
+        wide(
+            #[inline(always)]
+            || {
+                for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
+                    prefetch_ahead(splats, ids, k);
+                    let s = &splats[i as usize];
+                    *slot = PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
+                }
+            },
+        )
     });
     out
 }
@@ -250,10 +256,10 @@ pub fn rasterize(
     min_alpha: f32,
 ) -> (Vec<f32>, PixelState) {
     let prepared = prepare(splats, bins, min_alpha);
-    let tiles: Vec<_> = (0..bins.tiles_x * bins.tiles_y)
+    let tiles: Vec<_> = heaviest_first(bins)
         .into_par_iter()
         .map(|t| {
-            wide(
+            let tile = wide(
                 #[inline(always)]
                 || {
                     let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
@@ -316,9 +322,14 @@ pub fn rasterize(
                     }
                     (trans, rgb, last, depth, blends, blended_pairs)
                 },
-            )
+            );
+            (t, tile)
         })
         .collect();
+    let mut at = vec![0; tiles.len()];
+    for (k, (t, _)) in tiles.iter().enumerate() {
+        at[*t] = k;
+    }
     let mut image = vec![0.0f32; width * height * 4];
     let mut state = PixelState {
         final_t: vec![1.0; width * height],
@@ -328,21 +339,43 @@ pub fn rasterize(
         blended_pairs: Vec::with_capacity(bins.pairs()),
         prepared: Vec::new(),
     };
-    for (t, (trans, rgb, last, depth, blends, blended_pairs)) in tiles.iter().enumerate() {
+    for &k in &at {
+        let (_, (.., blends, blended_pairs)) = &tiles[k];
         state.blends += blends;
         state.blended_pairs.extend_from_slice(blended_pairs);
-        for (k, idx) in tile_pixels(t, bins, width, height) {
-            for c in 0..3 {
-                image[4 * idx + c] = rgb[c][k] + trans[k] * background[c];
-            }
-            image[4 * idx + 3] = 1.0 - trans[k];
-            state.final_t[idx] = trans[k];
-            state.n_contrib[idx] = last[k] as u32;
-            state.depth[idx] = depth[k];
-        }
     }
+    // The pixels, in parallel over rows of tiles (each a block of image rows).
+    let rows = TILE * width;
+    image
+        .par_chunks_mut(4 * rows)
+        .zip(state.final_t.par_chunks_mut(rows))
+        .zip(state.n_contrib.par_chunks_mut(rows).zip(state.depth.par_chunks_mut(rows)))
+        .enumerate()
+        .for_each(|(ty, ((image, final_t), (n_contrib, depth_out)))| {
+            for tx in 0..bins.tiles_x {
+                let (_, (trans, rgb, last, depth, ..)) = &tiles[at[ty * bins.tiles_x + tx]];
+                for (k, idx) in tile_pixels(ty * bins.tiles_x + tx, bins, width, height) {
+                    let idx = idx - ty * rows;
+                    for c in 0..3 {
+                        image[4 * idx + c] = rgb[c][k] + trans[k] * background[c];
+                    }
+                    image[4 * idx + 3] = 1.0 - trans[k];
+                    final_t[idx] = trans[k];
+                    n_contrib[idx] = last[k] as u32;
+                    depth_out[idx] = depth[k];
+                }
+            }
+        });
     state.prepared = prepared;
     (image, state)
+}
+
+/// The tiles, those with the longest lists first: the parallel loops then end on short tiles,
+/// and a thread left alone with the heaviest one does not hold up the rest.
+fn heaviest_first(bins: &TileBins) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..bins.tiles_x * bins.tiles_y).collect();
+    order.sort_by_key(|&t| std::cmp::Reverse(bins.offsets[t + 1] - bins.offsets[t]));
+    order
 }
 
 /// A tile's values of one kind, aligned to a cache line: a tile row is then one line, so no
@@ -406,7 +439,11 @@ pub fn rasterize_backward(
         slices.push(head);
         rest = tail;
     }
-    slices.into_par_iter().enumerate().for_each(|(t, grads)| {
+    let order = heaviest_first(bins);
+    let mut work: Vec<Option<&mut [ProjectedGrad]>> = slices.into_iter().map(Some).collect();
+    let work: Vec<(usize, &mut [ProjectedGrad])> =
+        order.iter().map(|&t| (t, work[t].take().expect("each tile once"))).collect();
+    work.into_par_iter().for_each(|(t, grads)| {
         wide(
             #[inline(always)]
             || {
@@ -488,7 +525,15 @@ pub fn rasterize_backward(
         .into_par_iter()
         .map(|k| {
             let mut g = ProjectedGrad::default();
-            for &p in &bins.splat_pairs[bins.splat_offsets[k]..bins.splat_offsets[k + 1]] {
+            // A splat's pairs lie in different tiles' slices, a cache miss each: prefetched
+            // along the next splats' pairs.
+            let pairs = &bins.splat_pairs[bins.splat_offsets[k]..bins.splat_offsets[k + 1]];
+            let ahead =
+                &bins.splat_pairs[bins.splat_offsets[k + 1]..bins.splat_offsets[(k + 3).min(bins.splats.len())]];
+            for &p in ahead {
+                prefetch(&flat, p as usize);
+            }
+            for &p in pairs {
                 g += flat[p as usize];
             }
             g
