@@ -42,7 +42,7 @@ pub struct TileBins {
     pub tiles_y: usize,
     /// `offsets[t]..offsets[t+1]` indexes `ids` for tile `t` (row-major tiles).
     pub offsets: Vec<usize>,
-    /// Rank in `splats` (its place in depth order) of each (tile, splat) pair's splat.
+    /// Splat index of each (tile, splat) pair.
     pub ids: Vec<u32>,
     /// The binned splats, nearest first.
     pub splats: Vec<u32>,
@@ -127,20 +127,20 @@ impl PreparedSplat {
     }
 }
 
-/// The binned splats in depth order, each prepared once per call rather than once per tile
-/// it touches; the tile lists then read this array in ascending order.
+/// Every splat prepared once per call rather than once per tile it touches, in index order
+/// (read in order, where the depth order of the binned splats made each read a cache miss).
 fn prepare(splats: &[ProjectedSplat], bins: &TileBins, min_alpha: f32) -> Vec<PreparedSplat> {
     let (width, height) = (bins.tiles_x * TILE, bins.tiles_y * TILE);
-    let mut out = vec![PreparedSplat::default(); bins.splats.len()];
-    // The binned splats are in depth order, so `splats[i]` is a cache miss each: prefetched.
-    out.par_chunks_mut(1024).zip(bins.splats.par_chunks(1024)).for_each(|(out, ids)| {
+    let mut out = vec![PreparedSplat::default(); splats.len()];
+    out.par_chunks_mut(1024).zip(splats.par_chunks(1024)).for_each(|(out, splats)| {
         wide(
             #[inline(always)]
             || {
-                for (k, (slot, &i)) in out.iter_mut().zip(ids).enumerate() {
-                    prefetch_ahead(splats, ids, k);
-                    let s = &splats[i as usize];
-                    *slot = PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
+                for (slot, s) in out.iter_mut().zip(splats) {
+                    if s.radius > 0.0 {
+                        *slot =
+                            PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
+                    }
                 }
             },
         )
@@ -181,11 +181,11 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     let mut splat_offsets = Vec::with_capacity(rects.len() + 1);
     let mut splat_pairs = Vec::with_capacity(pairs);
     splat_offsets.push(0);
-    for (rank, &(_, (x0, x1, y0, y1))) in rects.iter().enumerate() {
+    for &(i, (x0, x1, y0, y1)) in &rects {
         for ty in y0..y1 {
             for tx in x0..x1 {
                 let t = ty * tiles_x + tx;
-                ids[cursor[t]] = rank as u32;
+                ids[cursor[t]] = i;
                 splat_pairs.push(cursor[t] as u32);
                 cursor[t] += 1;
             }
@@ -231,8 +231,7 @@ pub struct PixelState {
     /// into any pixel of the tile. The others (a box corner the footprint does not reach,
     /// pixels already stopped) have a zero gradient, and the backward skips them.
     pub blended_pairs: Vec<bool>,
-    /// The binned splats as the kernels read them, in depth order (built by the forward,
-    /// reused by the backward).
+    /// The splats as the kernels read them (built by the forward, reused by the backward).
     pub prepared: Vec<PreparedSplat>,
 }
 
@@ -424,7 +423,7 @@ pub fn rasterize_backward(
     assert_eq!(grad_image.len(), width * height * 4, "image gradient must be H×W×4");
     // The forward's prepared splats, unless the state came from elsewhere.
     let own;
-    let prepared = if state.prepared.len() == bins.splats.len() {
+    let prepared = if state.prepared.len() == splats.len() {
         &state.prepared
     } else {
         own = prepare(splats, bins, min_alpha);
