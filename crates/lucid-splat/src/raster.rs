@@ -2,12 +2,11 @@
 //! front-to-back alpha compositing per tile, and the exact backward traversing each tile back
 //! to front.
 //!
-//! Inside a tile the loops run Gaussian-outer, pixel-inner: a splat is loaded once and
-//! blended into all 256 pixels (its record prefetched a few splats ahead; the backward copies
-//! the tile's splats into blocks first),
-//! and in the backward its gradient is summed over the tile's pixels in registers and stored
-//! once per (tile, splat) pair. Those per-pair gradients are then summed per splat in a
-//! fixed order, so results do not depend on the thread count.
+//! Inside a tile the loops run Gaussian-outer, pixel-inner: a splat's kernel constants,
+//! prepared once per call, are loaded once (prefetched a few splats ahead) and blended into
+//! the tile's pixels, and in the backward its gradient is summed over the tile's pixels in
+//! registers and stored once per (tile, splat) pair. Those per-pair gradients are then summed
+//! per splat in a fixed order, so results do not depend on the thread count.
 //!
 //! A splat covers a tile row's span (its blend-threshold ellipse cut by the row) with 8-pixel
 //! runs. The forward keeps runs at the rows' halves: a run then reads exactly the lanes an
@@ -110,7 +109,7 @@ fn pixel_rect(s: &ProjectedSplat, width: usize, height: usize) -> [i32; 4] {
     [x0, x1, y0, y1]
 }
 
-/// A binned splat ready for the kernels: its constants and its pixel box.
+/// A splat ready for the kernels: its constants and its pixel box.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PreparedSplat {
     lanes: SplatLanes,
@@ -200,8 +199,8 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
 const PREFETCH_AHEAD: usize = 8;
 
 /// Before `splats[ids[k]]` is read, asks the cache for the record [`PREFETCH_AHEAD`] entries
-/// further down the list (and, at the first entry, for the ones before that): a tile's list
-/// skips through the array, too sparsely for the hardware prefetcher.
+/// further down the list (and, at the first entry, for the ones before that): a tile's list is
+/// in depth order and jumps through the array, which the hardware prefetcher cannot follow.
 #[inline(always)]
 fn prefetch_ahead<T>(splats: &[T], ids: &[u32], k: usize) {
     if k == 0 {
