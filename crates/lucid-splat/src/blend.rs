@@ -294,14 +294,15 @@ pub fn forward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: For
 pub struct BackwardRun<'a> {
     /// Transmittance in front of the splat being visited (walked back from the final one).
     pub trans: &'a mut [f32; LANES],
-    /// Final transmittance.
-    pub t_final: &'a [f32; LANES],
+    /// `∂loss/∂alpha` times the final transmittance.
+    pub alpha_final: &'a [f32; LANES],
     /// Contributors of the pixel (splats at or past it are skipped).
     pub n_contrib: &'a [u32; LANES],
-    /// `∂loss/∂` RGB and alpha.
-    pub dout: [&'a [f32; LANES]; 4],
-    /// Colour of everything behind the splat being visited, background share included.
-    pub behind: [&'a mut [f32; LANES]; 3],
+    /// `∂loss/∂` RGB.
+    pub dout: [&'a [f32; LANES]; 3],
+    /// `Σ_c ∂loss/∂c · behind_c`, where `behind` is the colour of everything behind the splat
+    /// being visited, background share included (the colours themselves are not needed).
+    pub behind: &'a mut [f32; LANES],
 }
 
 /// Per-lane sums of one splat's screen-space gradient over the runs it covers. With
@@ -340,18 +341,16 @@ impl GradLanes {
 pub fn backward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: BackwardRun<'_>, acc: &mut GradLanes) {
     let (by, cy, dx0, dy) = s.run_power(&run);
     // Local copies, as in the forward.
-    let mut behind = px.behind.each_ref().map(|b| **b);
+    let mut behind = *px.behind;
     let mut trans = *px.trans;
-    let (t_final, n_contrib) = (*px.t_final, *px.n_contrib);
+    let (alpha_final, n_contrib) = (*px.alpha_final, *px.n_contrib);
     let dout = px.dout.map(|d| *d);
     let mut sums = *acc;
     for l in 0..LANES {
         // ∂loss/∂α = (T_final·∂loss/∂alpha − Σ ∂loss/∂c·behind_c + T·Σ ∂loss/∂c·colour_c)/(1 − α):
         // both sums do not depend on α, so they run alongside the exponential, not after it.
         let shade = dout[0][l] * s.colour[0] + dout[1][l] * s.colour[1] + dout[2][l] * s.colour[2];
-        let under = dout[3][l] * t_final[l]
-            - (dout[0][l] * behind[0][l] + dout[1][l] * behind[1][l] + dout[2][l] * behind[2][l]);
-        let ahead = under + trans[l] * shade;
+        let ahead = alpha_final[l] - behind[l] + trans[l] * shade;
         let dx = dx0 + LANE_X[l];
         let raw = fast_exp((s.qa * dx + by) * dx + cy);
         let alpha = raw.min(crate::raster::MAX_ALPHA);
@@ -362,10 +361,10 @@ pub fn backward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: Ba
         let unblend = if ok { inv } else { 1.0 };
         let w = if ok { alpha * t_i } else { 0.0 };
         let g_alpha = inv * ahead;
-        for ch in 0..3 {
-            sums.colour[ch][l] += dout[ch][l] * w;
-            behind[ch][l] += s.colour[ch] * w;
+        for (sum, d) in sums.colour.iter_mut().zip(&dout) {
+            sum[l] += d[l] * w;
         }
+        behind[l] += shade * w;
         // Unconditional, as in the forward, so that the loop vectorises.
         trans[l] *= unblend;
         // Where the opacity cap binds, α no longer depends on the splat's parameters.
@@ -380,9 +379,7 @@ pub fn backward_run(s: &SplatLanes, index: u32, run: Run, min_alpha: f32, px: Ba
         sums.xy[l] += gx * dy;
         sums.yy[l] += gy * dy;
     }
-    for (dst, src) in px.behind.into_iter().zip(behind) {
-        *dst = src;
-    }
+    *px.behind = behind;
     *px.trans = trans;
     *acc = sums;
 }

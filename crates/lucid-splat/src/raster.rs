@@ -448,26 +448,27 @@ pub fn rasterize_backward(
                 let ids = &bins.ids[bins.offsets[t]..bins.offsets[t + 1]];
                 let blended_pairs = &state.blended_pairs[bins.offsets[t]..bins.offsets[t + 1]];
                 let mut trans = TileArray([0.0f32; TILE_PIXELS]);
-                let mut t_final = TileArray([0.0f32; TILE_PIXELS]);
                 let mut n_contrib = TileArray([0u32; TILE_PIXELS]);
-                let mut dout = [TileArray([0.0f32; TILE_PIXELS]); 4];
-                // ∂loss/∂α_i collects (S_c + T_final·bg_c)/(1−α_i): S is the colour of everything
-                // behind splat i, seeded with the background's share.
-                let mut behind = [TileArray([0.0f32; TILE_PIXELS]); 3];
+                let mut dout = [TileArray([0.0f32; TILE_PIXELS]); 3];
+                // ∂loss/∂alpha times the final transmittance.
+                let mut alpha_final = TileArray([0.0f32; TILE_PIXELS]);
+                // ∂loss/∂α_i collects Σ_c ∂loss/∂c·(S_c + T_final·bg_c)/(1−α_i): S is the colour
+                // of everything behind splat i; this is the sum, seeded with the background's
+                // share, which is all the backward needs of those colours.
+                let mut behind = TileArray([0.0f32; TILE_PIXELS]);
                 // Per tile row, the most contributors of its pixels: a splat at or past it
                 // touches none of them (every lane would be masked off), so the row is skipped.
                 let mut row_contrib = [0u32; TILE];
                 for (k, idx) in tile_pixels(t, bins, width, height) {
-                    trans[k] = state.final_t[idx];
-                    t_final[k] = state.final_t[idx];
+                    let t_final = state.final_t[idx];
+                    trans[k] = t_final;
                     n_contrib[k] = state.n_contrib[idx];
                     row_contrib[k / TILE] = row_contrib[k / TILE].max(n_contrib[k]);
-                    for c in 0..4 {
-                        dout[c][k] = grad_image[4 * idx + c];
-                    }
                     for c in 0..3 {
-                        behind[c][k] = t_final[k] * background[c];
+                        dout[c][k] = grad_image[4 * idx + c];
+                        behind[k] += grad_image[4 * idx + c] * t_final * background[c];
                     }
+                    alpha_final[k] = grad_image[4 * idx + 3] * t_final;
                 }
                 let max_contrib = row_contrib.iter().copied().max().unwrap_or(0) as usize;
                 let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
@@ -494,8 +495,7 @@ pub fn rasterize_backward(
                             let bit = pending.trailing_zeros();
                             pending &= pending - 1;
                             let (o, run) = runs.run(bit);
-                            let [br, bg, bb] = &mut behind;
-                            let [d0, d1, d2, d3] = &dout;
+                            let [d0, d1, d2] = &dout;
                             backward_run(
                                 lanes_of,
                                 j as u32,
@@ -503,10 +503,10 @@ pub fn rasterize_backward(
                                 min_alpha,
                                 BackwardRun {
                                     trans: lanes_mut(&mut trans, o),
-                                    t_final: lanes(&t_final, o),
+                                    alpha_final: lanes(&alpha_final, o),
                                     n_contrib: lanes(&n_contrib, o),
-                                    dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o), lanes(d3, o)],
-                                    behind: [lanes_mut(br, o), lanes_mut(bg, o), lanes_mut(bb, o)],
+                                    dout: [lanes(d0, o), lanes(d1, o), lanes(d2, o)],
+                                    behind: lanes_mut(&mut behind, o),
                                 },
                                 &mut acc,
                             );
