@@ -54,7 +54,6 @@ pub struct SplatLanes {
     inv_opacity: f32,
     colour: [f32; 3],
     depth: f32,
-    conic: [f32; 3],
     /// The blend-threshold ellipse `A dx² + 2B dx dy + C dy² ≤ R`, `R = 2 ln(opacity / min α)`,
     /// as its rows' spans: centre `mean_x + slope·dy`, half-width `√(ar − k·dy²) / A`.
     slope: f32,
@@ -80,7 +79,6 @@ impl SplatLanes {
             inv_opacity: 1.0 / s.opacity,
             colour: s.colour,
             depth: s.depth,
-            conic: s.conic,
             slope: -b / a,
             ar: a * reach2,
             k: a * c - b * b,
@@ -324,7 +322,8 @@ impl GradLanes {
     /// The lane sums of splat `s` as one gradient, added in a fixed order.
     pub fn total(&self, s: &SplatLanes) -> crate::project::ProjectedGrad {
         let sum = |v: &[f32; LANES]| v.iter().sum::<f32>();
-        let [a, b, c] = s.conic;
+        // The conic from the exponent's coefficients (halving and doubling are exact).
+        let (a, b, c) = (-2.0 * s.qa, -s.qb, -2.0 * s.qc);
         let (x, y) = (sum(&self.x), sum(&self.y));
         crate::project::ProjectedGrad {
             mean: glam::Vec2::new(a * x + b * y, b * x + c * y),
