@@ -234,13 +234,13 @@ pub struct PixelState {
     pub prepared: Vec<PreparedSplat>,
 }
 
-/// The image pixels of tile `t`: `(index in the tile, index in the image)`.
-fn tile_pixels(t: usize, bins: &TileBins, width: usize, height: usize) -> impl Iterator<Item = (usize, usize)> {
-    let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
-    (0..TILE_PIXELS).filter_map(move |k| {
-        let (x, y) = (tx * TILE + k % TILE, ty * TILE + k / TILE);
-        (x < width && y < height).then_some((k, y * width + x))
-    })
+/// The image rows of tile `t`: `(tile index, image index)` of each row's first pixel, and
+/// the row's length (a tile at the image's right edge is cut short). Loops over a row's pixels
+/// then index both arrays contiguously, with no per-pixel bounds test.
+fn tile_rows(t: usize, bins: &TileBins, width: usize, height: usize) -> impl Iterator<Item = (usize, usize, usize)> {
+    let (x0, y0) = ((t % bins.tiles_x) * TILE, (t / bins.tiles_x) * TILE);
+    let len = width.saturating_sub(x0).min(TILE);
+    (0..TILE.min(height.saturating_sub(y0))).map(move |ly| (ly * TILE, (y0 + ly) * width + x0, len))
 }
 
 /// Composites the binned splats front to back over `background`: returns the `H×W×4` image
@@ -352,15 +352,23 @@ pub fn rasterize(
         .for_each(|(ty, ((image, final_t), (n_contrib, depth_out)))| {
             for tx in 0..bins.tiles_x {
                 let (_, (trans, rgb, last, depth, ..)) = &tiles[at[ty * bins.tiles_x + tx]];
-                for (k, idx) in tile_pixels(ty * bins.tiles_x + tx, bins, width, height) {
-                    let idx = idx - ty * rows;
-                    for c in 0..3 {
-                        image[4 * idx + c] = rgb[c][k] + trans[k] * background[c];
+                for (k0, idx0, len) in tile_rows(ty * bins.tiles_x + tx, bins, width, height) {
+                    let idx0 = idx0 - ty * rows;
+                    let pixels = &mut image[4 * idx0..4 * (idx0 + len)];
+                    for (i, px) in pixels.chunks_exact_mut(4).enumerate() {
+                        let (k, t) = (k0 + i, trans[k0 + i]);
+                        px.copy_from_slice(&[
+                            rgb[0][k] + t * background[0],
+                            rgb[1][k] + t * background[1],
+                            rgb[2][k] + t * background[2],
+                            1.0 - t,
+                        ]);
                     }
-                    image[4 * idx + 3] = 1.0 - trans[k];
-                    final_t[idx] = trans[k];
-                    n_contrib[idx] = last[k] as u32;
-                    depth_out[idx] = depth[k];
+                    final_t[idx0..idx0 + len].copy_from_slice(&trans[k0..k0 + len]);
+                    for (n, &l) in n_contrib[idx0..idx0 + len].iter_mut().zip(&last[k0..k0 + len]) {
+                        *n = l as u32;
+                    }
+                    depth_out[idx0..idx0 + len].copy_from_slice(&depth[k0..k0 + len]);
                 }
             }
         });
@@ -429,7 +437,9 @@ pub fn rasterize_backward(
         &own
     };
     // One gradient per (tile, splat) pair, each tile writing its own slice.
-    let mut flat = vec![ProjectedGrad::default(); bins.pairs()];
+    // Filled in parallel: as one `vec!` it was a serial memset of megabytes per call.
+    let mut flat = Vec::with_capacity(bins.pairs());
+    flat.par_extend(rayon::iter::repeat_n(ProjectedGrad::default(), bins.pairs()));
     let mut slices: Vec<&mut [ProjectedGrad]> = Vec::with_capacity(bins.tiles_x * bins.tiles_y);
     let mut rest = flat.as_mut_slice();
     for t in 0..bins.tiles_x * bins.tiles_y {
@@ -459,16 +469,19 @@ pub fn rasterize_backward(
                 // Per tile row, the most contributors of its pixels: a splat at or past it
                 // touches none of them (every lane would be masked off), so the row is skipped.
                 let mut row_contrib = [0u32; TILE];
-                for (k, idx) in tile_pixels(t, bins, width, height) {
-                    let t_final = state.final_t[idx];
-                    trans[k] = t_final;
-                    n_contrib[k] = state.n_contrib[idx];
-                    row_contrib[k / TILE] = row_contrib[k / TILE].max(n_contrib[k]);
-                    for c in 0..3 {
-                        dout[c][k] = grad_image[4 * idx + c];
-                        behind[k] += grad_image[4 * idx + c] * t_final * background[c];
+                for (k0, idx0, len) in tile_rows(t, bins, width, height) {
+                    trans[k0..k0 + len].copy_from_slice(&state.final_t[idx0..idx0 + len]);
+                    n_contrib[k0..k0 + len].copy_from_slice(&state.n_contrib[idx0..idx0 + len]);
+                    row_contrib[k0 / TILE] = n_contrib[k0..k0 + len].iter().copied().max().unwrap_or(0);
+                    let pixels = &grad_image[4 * idx0..4 * (idx0 + len)];
+                    for (i, g) in pixels.chunks_exact(4).enumerate() {
+                        let (k, t_final) = (k0 + i, trans[k0 + i]);
+                        for c in 0..3 {
+                            dout[c][k] = g[c];
+                        }
+                        behind[k] = (g[0] * background[0] + g[1] * background[1] + g[2] * background[2]) * t_final;
+                        alpha_final[k] = g[3] * t_final;
                     }
-                    alpha_final[k] = grad_image[4 * idx + 3] * t_final;
                 }
                 let max_contrib = row_contrib.iter().copied().max().unwrap_or(0) as usize;
                 let (tx, ty) = (t % bins.tiles_x, t / bins.tiles_x);
