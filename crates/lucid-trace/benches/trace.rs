@@ -9,6 +9,7 @@ use std::time::Instant;
 use glam::Vec2;
 use lucid_scene::Ray;
 use lucid_scene::camera::Camera;
+use lucid_trace::geometry::{RAYS, RayPacket};
 use lucid_trace::integrator::spawn;
 use lucid_trace::render::RenderCamera;
 use lucid_trace::sampling::{Rng, cosine_hemisphere, orthonormal_basis};
@@ -58,11 +59,51 @@ fn main() {
         let n = rays.len();
         println!("{name:<28} {n:>10} {:>12.1} {:>10.3}", s * 1e9 / n as f64, hits as f64 / n as f64);
     };
+    // The same rays eight at a time, as the renderer traces them.
+    let packets = |rays: &[Ray]| -> Vec<(RayPacket, u32)> {
+        rays.chunks(RAYS)
+            .map(|chunk| {
+                let mut p = RayPacket::default();
+                for (l, r) in chunk.iter().enumerate() {
+                    for a in 0..3 {
+                        (p.origin[a][l], p.direction[a][l]) = (r.origin[a], r.direction[a]);
+                    }
+                }
+                (p, (1u32 << chunk.len()) - 1)
+            })
+            .collect()
+    };
+    let closest_packets = |name: &str, rays: &[Ray]| {
+        let packets = packets(rays);
+        let (s, hits) = best_of(5, || {
+            packets
+                .iter()
+                .map(|(p, live)| scene.bvh.closest_packet(p, *live, 0.0, f32::INFINITY).mask.count_ones() as usize)
+                .sum()
+        });
+        let n = rays.len();
+        println!("{name:<28} {n:>10} {:>12.1} {:>10.3}", s * 1e9 / n as f64, hits as f64 / n as f64);
+    };
     closest("closest hit, camera rays", &camera_rays);
+    closest_packets("  packets of 8", &camera_rays);
     closest("closest hit, bounce rays", &bounce_rays);
+    closest_packets("  packets of 8", &bounce_rays);
     let (s, hits) = best_of(5, || shadow_rays.iter().filter(|(r, d)| scene.bvh.occluded(r, 0.0, *d)).count());
     let n = shadow_rays.len();
     println!("{:<28} {n:>10} {:>12.1} {:>10.3}", "shadow rays", s * 1e9 / n as f64, hits as f64 / n as f64);
+    let rays: Vec<Ray> = shadow_rays.iter().map(|(r, _)| *r).collect();
+    let shadow_packets: Vec<_> = packets(&rays)
+        .into_iter()
+        .zip(shadow_rays.chunks(RAYS))
+        .map(|((p, live), chunk)| (p, live, std::array::from_fn(|l| chunk.get(l).map_or(0.0, |c| c.1))))
+        .collect();
+    let (s, hits) = best_of(5, || {
+        shadow_packets
+            .iter()
+            .map(|(p, live, reach)| scene.bvh.occluded_packet(p, *live, 0.0, reach).count_ones() as usize)
+            .sum()
+    });
+    println!("{:<28} {n:>10} {:>12.1} {:>10.3}", "  packets of 8", s * 1e9 / n as f64, hits as f64 / n as f64);
 
     let tracer = loaded.settings.integrator;
     let (s, rays) = best_of(3, || {

@@ -21,7 +21,7 @@ use lucid_scene::simd::wide;
 
 use crate::LightStrategy;
 use crate::bsdf::{Bsdf, Lambertian};
-use crate::geometry::{Intersection, Shape};
+use crate::geometry::{Intersection, RayPacket, Shape};
 use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index, spawn_origin};
 use crate::light::{Light, LightSample, pick_by_area, point_on_triangle, towards_area_point};
 use crate::material::{Material, SurfaceBsdf};
@@ -52,6 +52,12 @@ impl Vec3Lanes {
         self.x[l] = v.x;
         self.y[l] = v.y;
         self.z[l] = v.z;
+    }
+
+    /// The x, y and z rows.
+    #[inline(always)]
+    fn rows(&self) -> [Lanes; 3] {
+        [self.x, self.y, self.z]
     }
 }
 
@@ -174,14 +180,32 @@ impl PathTracer {
     /// draws only from its own stream, so the results do not depend on which lane traced it
     /// when. The same estimator as [`PathTracer::trace`] for scenes that
     /// [`PathTracer::packet_supports`].
-    pub fn trace_paths(&self, scene: &Scene, mut start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
+    pub fn trace_paths(&self, scene: &Scene, start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
         debug_assert!(Self::packet_supports(scene));
+        // The camera rays' hits first, eight consecutive paths at a time: those rays (a pixel's
+        // samples) are coherent, and a packet traces them several times faster than one by one.
+        // Later bounces are traced by whichever paths share the lanes then.
+        let starts: Vec<(Ray, Rng)> = (0..out.len()).map(start).collect();
+        let mut first_hits = Vec::with_capacity(starts.len());
+        for chunk in starts.chunks(LANES) {
+            let mut origin = Vec3Lanes::default();
+            let mut direction = Vec3Lanes::default();
+            for (l, (ray, _)) in chunk.iter().enumerate() {
+                origin.set(l, ray.origin);
+                direction.set(l, ray.direction);
+            }
+            let rays = RayPacket { origin: origin.rows(), direction: direction.rows() };
+            let hits = scene.bvh.closest_packet(&rays, (1 << chunk.len()) - 1, 0.0, f32::INFINITY);
+            first_hits.extend((0..chunk.len()).map(|l| hits.lane(l)));
+        }
         let light_pick = light_selection_probability(scene);
         let mut paths = Paths::default();
         let mut rngs: [Rng; LANES] = std::array::from_fn(|_| Rng::new(0, 0));
         let mut camera_rays = [Ray { origin: Vec3::ZERO, direction: Vec3::Z }; LANES];
         let mut results = [PathSample::default(); LANES];
         let mut traced: [Option<usize>; LANES] = [None; LANES];
+        // Each new path's first hit, until its lane's next closest-hit stage takes it.
+        let mut pending: [Option<Option<Hit>>; LANES] = [None; LANES];
         let mut next = 0;
         let mut vertices = Vertices::default();
         let mut lights = LightSamples::default();
@@ -194,7 +218,8 @@ impl PathTracer {
                     out[k] = PathSample { radiance: paths.radiance.get(l), ..results[l] };
                 }
                 if next < out.len() {
-                    let (ray, rng) = start(next);
+                    let (ray, rng) = starts[next].clone();
+                    pending[l] = Some(first_hits[next]);
                     paths.begin(l, &ray);
                     (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(next));
                     next += 1;
@@ -203,7 +228,7 @@ impl PathTracer {
             if !paths.alive.iter().any(|&a| a) {
                 break;
             }
-            let hits = closest_hits(scene, &paths, &mut results);
+            let hits = closest_hits(scene, &paths, &mut pending, &mut results);
             self.surface_events(scene, &mut paths, &hits, &mut vertices, &camera_rays, light_pick, &mut results);
             if vertices.kind.iter().all(|&k| k == VertexKind::None) {
                 continue;
@@ -380,19 +405,25 @@ impl PathTracer {
             contribution.set(l, paths.beta.get(l) * f * wi.z.abs() * lights.li.get(l) * weight / light_pdf);
             shadow[l] = true;
         }
+        // The shadow rays, traced together.
+        let mut rays = Vec3Lanes::default();
+        let mut reach = [0f32; LANES];
+        let mut live = 0u32;
         for l in 0..LANES {
             if !shadow[l] {
                 continue;
             }
             let wi = lights.wi.get(l);
-            let ray = Ray {
-                origin: spawn_origin(vertices.point.get(l), vertices.geometric_normal.get(l), wi),
-                direction: wi,
-            };
+            rays.set(l, spawn_origin(vertices.point.get(l), vertices.geometric_normal.get(l), wi));
             let distance = lights.distance[l];
-            let reach = if distance.is_finite() { distance * (1.0 - 1e-3) } else { f32::INFINITY };
+            reach[l] = if distance.is_finite() { distance * (1.0 - 1e-3) } else { f32::INFINITY };
+            live |= 1 << l;
             out[l].rays += 1;
-            if !scene.bvh.occluded(&ray, 0.0, reach) {
+        }
+        let packet = RayPacket { origin: rays.rows(), direction: lights.wi.rows() };
+        let blocked = scene.bvh.occluded_packet(&packet, live, 0.0, &reach);
+        for l in 0..LANES {
+            if (live & !blocked) >> l & 1 != 0 {
                 paths.radiance.set(l, paths.radiance.get(l) + contribution.get(l));
             }
         }
@@ -493,17 +524,27 @@ impl Paths {
     }
 }
 
-/// Each live path's closest hit.
-fn closest_hits(scene: &Scene, paths: &Paths, out: &mut [PathSample; LANES]) -> [Option<(f32, f32, f32, u32)>; LANES] {
-    let mut hits = [None; LANES];
+/// A closest hit: `(t, u, v, primitive)`.
+type Hit = (f32, f32, f32, u32);
+
+/// Each live path's closest hit: the `pending` first hit of a new path, the others' rays
+/// traced together.
+fn closest_hits(
+    scene: &Scene,
+    paths: &Paths,
+    pending: &mut [Option<Option<Hit>>; LANES],
+    out: &mut [PathSample; LANES],
+) -> [Option<Hit>; LANES] {
+    let mut live = 0u32;
     for l in 0..LANES {
         if paths.alive[l] {
-            let ray = Ray { origin: paths.origin.get(l), direction: paths.direction.get(l) };
-            hits[l] = scene.bvh.closest(&ray, 0.0, f32::INFINITY);
+            live |= ((pending[l].is_none()) as u32) << l;
             out[l].rays += 1;
         }
     }
-    hits
+    let rays = RayPacket { origin: paths.origin.rows(), direction: paths.direction.rows() };
+    let hits = scene.bvh.closest_packet(&rays, live, 0.0, f32::INFINITY);
+    std::array::from_fn(|l| pending[l].take().unwrap_or_else(|| hits.lane(l)))
 }
 
 impl Vertices {

@@ -7,6 +7,7 @@ use glam::{Vec3, Vec3A};
 use lucid_scene::Ray;
 
 use super::wide::WideBvh;
+use super::wide_packet::{PacketHits, RAYS, RayPacket};
 use super::{Aabb, Intersection, Primitive, Shape, TriangleFrame, triangle_interaction};
 
 const BINS: usize = 16;
@@ -173,6 +174,20 @@ impl Bvh {
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         self.wide.occluded(ray, t_min, t_max)
     }
+
+    /// [`Bvh::closest`] for each ray of `rays` whose bit is set in `live`, the eight traced
+    /// together.
+    #[inline]
+    pub fn closest_packet(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: f32) -> PacketHits {
+        self.wide.closest_packet(rays, live, t_min, t_max)
+    }
+
+    /// [`Bvh::occluded`] for each ray of `rays` whose bit is set in `live` (ray `l` within
+    /// `(t_min, t_max[l])`), the eight traced together: the blocked rays as a bit mask.
+    #[inline]
+    pub fn occluded_packet(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: &[f32; RAYS]) -> u32 {
+        self.wide.occluded_packet(rays, live, t_min, t_max)
+    }
 }
 
 /// Builds the subtree of `items` into `nodes`, returning its index. Items are reordered.
@@ -303,6 +318,56 @@ mod tests {
                 primitive(Shape::Triangle { p, n: None, uv: None })
             })
             .collect()
+    }
+
+    #[test]
+    #[allow(clippy::needless_range_loop)] // lane loops over several per-lane arrays
+    fn packet_queries_agree_with_single_rays() {
+        // Small scenes (one packet through every node) and large ones (rays leaving the packet
+        // for single-ray traversal); rays from a common point (coherent) and scattered ones;
+        // some lanes dead.
+        for (triangles, spheres) in [(2, 0), (12, 3), (36, 0), (333, 50), (3000, 0)] {
+            let mut prims = random_triangles(triangles);
+            prims.extend(random_spheres(spheres));
+            let bvh = Bvh::new(prims);
+            let mut rng = Rng::new(13, 0);
+            let (mut hits, mut blocked) = (0, 0);
+            for k in 0..600 {
+                let common = random_point(&mut rng, 30.0);
+                let mut rays = RayPacket::default();
+                let mut reach = [0f32; RAYS];
+                for l in 0..RAYS {
+                    let o = if k % 2 == 0 { common } else { random_point(&mut rng, 30.0) };
+                    let d = uniform_sphere(rng.uniform2());
+                    for a in 0..3 {
+                        (rays.origin[a][l], rays.direction[a][l]) = (o[a], d[a]);
+                    }
+                    reach[l] = 40.0 * rng.uniform();
+                }
+                let live = if k % 3 == 0 { 0xff } else { (rng.uniform() * 256.0) as u32 & 0xff };
+                let got = bvh.closest_packet(&rays, live, 1e-4, f32::INFINITY);
+                let shadow = bvh.occluded_packet(&rays, live, 1e-4, &reach);
+                for l in 0..RAYS {
+                    let ray = Ray {
+                        origin: Vec3::new(rays.origin[0][l], rays.origin[1][l], rays.origin[2][l]),
+                        direction: Vec3::new(rays.direction[0][l], rays.direction[1][l], rays.direction[2][l]),
+                    };
+                    let on = live >> l & 1 != 0;
+                    let want = bvh.closest(&ray, 1e-4, f32::INFINITY).filter(|_| on);
+                    let have = (got.mask >> l & 1 != 0).then(|| (got.t[l], got.u[l], got.v[l], got.primitive[l]));
+                    assert_eq!(have, want, "{triangles} triangles, {spheres} spheres, packet {k}, lane {l}");
+                    let occluded = on && bvh.occluded(&ray, 1e-4, reach[l]);
+                    assert_eq!(shadow >> l & 1 != 0, occluded, "{triangles} triangles, packet {k}, lane {l}");
+                    hits += want.is_some() as u32;
+                    blocked += occluded as u32;
+                }
+            }
+            // Both outcomes occur, so the comparison means something.
+            assert!(hits >= 5 && (1..4000).contains(&blocked), "{triangles}: {hits} hits, {blocked} blocked");
+            if triangles >= 333 {
+                assert!(hits > 300 && blocked > 200, "{triangles}: {hits} hits, {blocked} blocked");
+            }
+        }
     }
 
     #[test]

@@ -5,11 +5,13 @@ pub mod bvh;
 pub mod mesh_file;
 pub mod procedural;
 mod wide;
+mod wide_packet;
 
 use glam::{Vec2, Vec3};
 use lucid_scene::Ray;
 
 pub use bvh::Bvh;
+pub use wide_packet::{PacketHits, RAYS, RayPacket};
 
 /// An axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]

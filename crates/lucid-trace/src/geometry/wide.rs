@@ -17,11 +17,11 @@ use lucid_scene::simd::wide;
 use super::bvh::{CompactShape, Node};
 
 /// Lanes per node and per triangle packet.
-const W: usize = 8;
+pub(super) const W: usize = 8;
 /// Marks a child reference as a leaf (the rest is the leaf's index).
-const LEAF: u32 = 1 << 31;
+pub(super) const LEAF: u32 = 1 << 31;
 /// An unused child slot (its box is empty, so no ray enters it).
-const EMPTY: u32 = u32::MAX;
+pub(super) const EMPTY: u32 = u32::MAX;
 /// Traversal stack entries: each level of the tree leaves at most seven more on the stack, so
 /// this serves 36 levels (a tree of 8³⁶ leaves; indexing past it panics, it cannot corrupt).
 const STACK: usize = 256;
@@ -30,28 +30,30 @@ const STACK: usize = 256;
 /// row of lanes per axis.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
-struct Node8 {
-    bounds: [[[f32; W]; 3]; 2],
-    children: [u32; W],
+pub(super) struct Node8 {
+    pub(super) bounds: [[[f32; W]; 3]; 2],
+    pub(super) children: [u32; W],
 }
 
 /// Eight triangles as a vertex and two edges per lane, one row per coordinate.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
-struct Triangle8 {
-    p0: [[f32; W]; 3],
-    e1: [[f32; W]; 3],
-    e2: [[f32; W]; 3],
+pub(super) struct Triangle8 {
+    pub(super) p0: [[f32; W]; 3],
+    pub(super) e1: [[f32; W]; 3],
+    pub(super) e2: [[f32; W]; 3],
     /// Each lane's primitive; lanes past the leaf's last triangle repeat it (the same hit twice
     /// changes nothing).
-    primitive: [u32; W],
+    pub(super) primitive: [u32; W],
 }
 
 /// A leaf's triangles (packets of eight) and spheres, as ranges of [`WideBvh`]'s arrays.
 #[derive(Clone, Copy, Debug)]
-struct Leaf {
-    packets: (u32, u32),
-    spheres: (u32, u32),
+pub(super) struct Leaf {
+    pub(super) packets: (u32, u32),
+    pub(super) spheres: (u32, u32),
+    /// Triangles and spheres in all.
+    pub(super) shapes: u32,
 }
 
 /// A ray prepared for box and packet tests.
@@ -147,11 +149,11 @@ impl RayQuery {
 /// The 8-wide hierarchy.
 #[derive(Clone, Debug)]
 pub(super) struct WideBvh {
-    nodes: Vec<Node8>,
-    leaves: Vec<Leaf>,
-    packets: Vec<Triangle8>,
-    spheres: Vec<(u32, CompactShape)>,
-    root: u32,
+    pub(super) nodes: Vec<Node8>,
+    pub(super) leaves: Vec<Leaf>,
+    pub(super) packets: Vec<Triangle8>,
+    pub(super) spheres: Vec<(u32, CompactShape)>,
+    pub(super) root: u32,
 }
 
 impl WideBvh {
@@ -243,6 +245,7 @@ impl WideBvh {
         self.leaves.push(Leaf {
             packets: (first_packet, self.packets.len() as u32 - first_packet),
             spheres: (first_sphere, self.spheres.len() as u32 - first_sphere),
+            shapes: count,
         });
         LEAF | (self.leaves.len() as u32 - 1)
     }
@@ -270,11 +273,17 @@ impl WideBvh {
         if self.root == EMPTY {
             return None;
         }
+        self.closest_from(ray, self.root, t_min, t_max)
+    }
+
+    /// [`WideBvh::closest`] in the subtree under `start` (a node or leaf reference).
+    #[inline(always)]
+    pub(super) fn closest_from(&self, ray: &Ray, start: u32, t_min: f32, t_max: f32) -> Option<(f32, f32, f32, u32)> {
         let q = RayQuery::new(ray);
         let mut best = None;
         let mut closest = t_max;
         let mut stack = Stack::<(u32, f32)>::new();
-        stack.push((self.root, t_min));
+        stack.push((start, t_min));
         while let Some((node, entry)) = stack.pop() {
             if entry >= closest {
                 continue;
@@ -358,9 +367,15 @@ impl WideBvh {
         if self.root == EMPTY {
             return false;
         }
+        self.occluded_from(ray, self.root, t_min, t_max)
+    }
+
+    /// [`WideBvh::occluded`] in the subtree under `start`.
+    #[inline(always)]
+    pub(super) fn occluded_from(&self, ray: &Ray, start: u32, t_min: f32, t_max: f32) -> bool {
         let q = RayQuery::new(ray);
         let mut stack = Stack::<u32>::new();
-        stack.push(self.root);
+        stack.push(start);
         while let Some(node) = stack.pop() {
             if node & LEAF != 0 {
                 let leaf = &self.leaves[(node & !LEAF) as usize];
@@ -416,31 +431,32 @@ fn spans(nodes: &[Node]) -> Vec<(u32, u32)> {
     spans
 }
 
-fn range((first, count): (u32, u32)) -> std::ops::Range<usize> {
+#[inline(always)]
+pub(super) fn range((first, count): (u32, u32)) -> std::ops::Range<usize> {
     first as usize..(first + count) as usize
 }
 
 /// A fixed-capacity traversal stack left uninitialised: zeroing 2 KiB per ray cost 6 % of a
 /// render (a `memset` per query), more than the traversal of a small scene's top levels.
-struct Stack<T: Copy> {
+pub(super) struct Stack<T: Copy> {
     items: [MaybeUninit<T>; STACK],
     len: usize,
 }
 
 impl<T: Copy> Stack<T> {
     #[inline(always)]
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Self { items: [const { MaybeUninit::uninit() }; STACK], len: 0 }
     }
 
     #[inline(always)]
-    fn push(&mut self, item: T) {
+    pub(super) fn push(&mut self, item: T) {
         self.items[self.len].write(item);
         self.len += 1;
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<T> {
+    pub(super) fn pop(&mut self) -> Option<T> {
         self.len = self.len.checked_sub(1)?;
         #[allow(unsafe_code)]
         // SAFETY: every slot below `len` was written by `push` (slots are only read below the

@@ -1,0 +1,345 @@
+//! Eight rays at once through the 8-wide BVH: the closest-hit and shadow queries of a packet
+//! of paths ([`crate::packet`]) traverse the tree together, each box and each triangle tested
+//! against the eight rays with one set of vector instructions (the rays in the lanes, the box
+//! or triangle broadcast).
+//!
+//! A single ray's query ([`WideBvh::closest`]) tests eight boxes or eight triangles against
+//! one ray, but most of its time goes to the branches between those tests — which children
+//! the ray entered, in which order, leaf or node, hit or not — which differ from ray to ray
+//! and mispredict. A packet takes those branches once for its eight rays. Rays that scatter
+//! in different directions share fewer subtrees, so a subtree entered by fewer than
+//! [`MIN_PACKET`] rays of the packet is finished by those rays one at a time: a packet then
+//! does little more work than its rays would alone, in a large scene as in a small one. The
+//! hits are the single-ray query's: the same triangle test, operation for operation, and the
+//! nearest hit per ray. Written by hand for the reason `bvh.rs` gives.
+
+use glam::Vec3;
+use lucid_scene::Ray;
+use lucid_scene::simd::wide;
+
+use super::wide::{EMPTY, LEAF, Node8, Stack, Triangle8, W, WideBvh, range};
+
+/// Rays per packet.
+pub const RAYS: usize = W;
+
+type Lanes = [f32; RAYS];
+
+/// Rays of a packet entering a subtree below which they traverse it one at a time.
+const MIN_PACKET: u32 = 3;
+
+/// Eight rays, one row of lanes per coordinate.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayPacket {
+    /// Origins: x, y and z rows.
+    pub origin: [Lanes; 3],
+    /// Directions, of unit length (as [`Ray`] requires).
+    pub direction: [Lanes; 3],
+}
+
+/// A packet's closest hits: lane `l` hit something where bit `l` of `mask` is set, at
+/// distance `t[l]`, barycentrics (or sphere coordinates) `u[l]`, `v[l]`, on `primitive[l]`.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketHits {
+    /// The lanes that hit.
+    pub mask: u32,
+    /// Hit distances (the query's `t_max` where missed).
+    pub t: Lanes,
+    /// First surface coordinate.
+    pub u: Lanes,
+    /// Second surface coordinate.
+    pub v: Lanes,
+    /// Primitive hit.
+    pub primitive: [u32; RAYS],
+}
+
+impl PacketHits {
+    /// Lane `l`'s hit as `(t, u, v, primitive)`, if any.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Option<(f32, f32, f32, u32)> {
+        (self.mask >> l & 1 != 0).then(|| (self.t[l], self.u[l], self.v[l], self.primitive[l]))
+    }
+}
+
+/// The packet prepared for box and triangle tests.
+struct PacketQuery {
+    o: [Lanes; 3],
+    d: [Lanes; 3],
+    inv: [Lanes; 3],
+}
+
+impl PacketQuery {
+    #[inline(always)]
+    fn new(rays: &RayPacket) -> Self {
+        Self { o: rays.origin, d: rays.direction, inv: rays.direction.map(|row| row.map(|d| 1.0 / d)) }
+    }
+
+    #[inline(always)]
+    fn ray(&self, l: usize) -> Ray {
+        Ray {
+            origin: Vec3::new(self.o[0][l], self.o[1][l], self.o[2][l]),
+            direction: Vec3::new(self.d[0][l], self.d[1][l], self.d[2][l]),
+        }
+    }
+
+    /// Which rays meet child `c`'s box within `(t_min, t_max)` (a bit mask), and their entry
+    /// distances. Where a slab distance is NaN (an origin on a slab plane of a ray parallel
+    /// to it) the other bound decides, so such a ray is kept rather than lost.
+    #[inline(always)]
+    fn boxes(&self, node: &Node8, c: usize, t_min: f32, t_max: &Lanes) -> (u32, Lanes) {
+        let lo = [node.bounds[0][0][c], node.bounds[0][1][c], node.bounds[0][2][c]];
+        let hi = [node.bounds[1][0][c], node.bounds[1][1][c], node.bounds[1][2][c]];
+        let mut entry = [0f32; RAYS];
+        let mut mask = 0u32;
+        for l in 0..RAYS {
+            let (mut near, mut far) = (t_min, t_max[l]);
+            for a in 0..3 {
+                let t0 = (lo[a] - self.o[a][l]) * self.inv[a][l];
+                let t1 = (hi[a] - self.o[a][l]) * self.inv[a][l];
+                let (first, last) = if t0 < t1 { (t0, t1) } else { (t1, t0) };
+                near = if first > near { first } else { near };
+                far = if last < far { last } else { far };
+            }
+            entry[l] = near;
+            mask |= ((near <= far) as u32) << l;
+        }
+        (mask, entry)
+    }
+
+    /// Möller–Trumbore of triangle `j` of `tri` against every ray: which rays hit it within
+    /// `(t_min, t_max)`, with `t`, `u` and `v`. The operations of `RayQuery::triangles` in its
+    /// order, so a ray gets the same numbers either way.
+    #[inline(always)]
+    #[allow(clippy::manual_range_contains)] // `&` of comparisons: no branch in the lane loop
+    fn triangle(&self, tri: &Triangle8, j: usize, t_min: f32, t_max: &Lanes) -> (u32, Lanes, Lanes, Lanes) {
+        let (e1x, e1y, e1z) = (tri.e1[0][j], tri.e1[1][j], tri.e1[2][j]);
+        let (e2x, e2y, e2z) = (tri.e2[0][j], tri.e2[1][j], tri.e2[2][j]);
+        let (p0x, p0y, p0z) = (tri.p0[0][j], tri.p0[1][j], tri.p0[2][j]);
+        let (mut ts, mut us, mut vs) = ([0f32; RAYS], [0f32; RAYS], [0f32; RAYS]);
+        let mut mask = 0u32;
+        for l in 0..RAYS {
+            let (dx, dy, dz) = (self.d[0][l], self.d[1][l], self.d[2][l]);
+            let (ox, oy, oz) = (self.o[0][l], self.o[1][l], self.o[2][l]);
+            let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
+            let det = e1x * pvx + e1y * pvy + e1z * pvz;
+            let inv = 1.0 / det;
+            let (tvx, tvy, tvz) = (ox - p0x, oy - p0y, oz - p0z);
+            let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
+            let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
+            let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
+            let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
+            let hit = (det.abs() >= 1e-12)
+                & (u >= 0.0)
+                & (u <= 1.0)
+                & (v >= 0.0)
+                & (u + v <= 1.0)
+                & (t > t_min)
+                & (t < t_max[l]);
+            ts[l] = t;
+            us[l] = u;
+            vs[l] = v;
+            mask |= (hit as u32) << l;
+        }
+        (mask, ts, us, vs)
+    }
+}
+
+/// The distinct triangles of a packet (lanes past a leaf's last triangle repeat it).
+#[inline(always)]
+fn distinct(tri: &Triangle8) -> usize {
+    (1..W).find(|&j| tri.primitive[j] == tri.primitive[j - 1]).unwrap_or(W)
+}
+
+impl WideBvh {
+    /// Whether the rays in `lanes` should leave the packet for the subtree `node`: a node's
+    /// boxes cost the packet eight tests (one per child, all rays at once) where one ray tests
+    /// them in one, so only a few rays go on alone; a leaf costs the packet one test per shape
+    /// and a ray one per packet of eight triangles plus its own setup, so small leaves (a wall
+    /// of two triangles) are tested by the packet whatever its rays.
+    #[inline(always)]
+    fn one_at_a_time(&self, node: u32, lanes: u32) -> bool {
+        let rays = lanes.count_ones();
+        if node & LEAF == 0 {
+            return rays < MIN_PACKET;
+        }
+        let leaf = &self.leaves[(node & !LEAF) as usize];
+        leaf.shapes > rays * (leaf.packets.1 + leaf.spheres.1 + 1)
+    }
+
+    /// The nearest hit within `(t_min, t_max)` of each ray of `rays` whose bit is set in
+    /// `live`.
+    #[inline]
+    pub(super) fn closest_packet(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: f32) -> PacketHits {
+        wide(
+            #[inline(always)]
+            || self.closest_packet_in(rays, live, t_min, t_max),
+        )
+    }
+
+    /// Which rays of `rays` whose bit is set in `live` are blocked within `(t_min, t_max[l])`,
+    /// as a bit mask.
+    #[inline]
+    pub(super) fn occluded_packet(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: &Lanes) -> u32 {
+        wide(
+            #[inline(always)]
+            || self.occluded_packet_in(rays, live, t_min, t_max),
+        )
+    }
+
+    #[inline(always)]
+    fn closest_packet_in(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: f32) -> PacketHits {
+        let mut best = PacketHits { mask: 0, t: [t_max; RAYS], u: [0.0; RAYS], v: [0.0; RAYS], primitive: [0; RAYS] };
+        if self.root == EMPTY || live == 0 {
+            return best;
+        }
+        let q = PacketQuery::new(rays);
+        let mut stack = Stack::<(u32, u32)>::new();
+        stack.push((self.root, live));
+        while let Some((node, lanes)) = stack.pop() {
+            if self.one_at_a_time(node, lanes) {
+                let mut pending = lanes;
+                while pending != 0 {
+                    let l = pending.trailing_zeros() as usize;
+                    pending &= pending - 1;
+                    if let Some((t, u, v, i)) = self.closest_from(&q.ray(l), node, t_min, best.t[l]) {
+                        (best.t[l], best.u[l], best.v[l], best.primitive[l]) = (t, u, v, i);
+                        best.mask |= 1 << l;
+                    }
+                }
+                continue;
+            }
+            if node & LEAF != 0 {
+                self.closest_packet_leaf(&q, node, t_min, lanes, &mut best);
+                continue;
+            }
+            let n = &self.nodes[node as usize];
+            // The children entered, ordered by where the first of the rays enters them (the
+            // packet's rays mostly go the same way near their common origin), nearest on top.
+            let leader = lanes.trailing_zeros() as usize;
+            let mut entered = [(0u32, 0u32, 0f32); W];
+            let mut k = 0;
+            for c in 0..W {
+                let child = n.children[c];
+                if child == EMPTY {
+                    break;
+                }
+                let (mask, entry) = q.boxes(n, c, t_min, &best.t);
+                let mask = mask & lanes;
+                if mask == 0 {
+                    continue;
+                }
+                let key = if mask >> leader & 1 != 0 { entry[leader] } else { f32::INFINITY };
+                let mut j = k;
+                while j > 0 && entered[j - 1].2 < key {
+                    entered[j] = entered[j - 1];
+                    j -= 1;
+                }
+                entered[j] = (child, mask, key);
+                k += 1;
+            }
+            for &(child, mask, _) in &entered[..k] {
+                stack.push((child, mask));
+            }
+        }
+        best
+    }
+
+    /// Tests a leaf's shapes against the rays in `lanes`, narrowing their best hits.
+    #[inline(always)]
+    fn closest_packet_leaf(&self, q: &PacketQuery, node: u32, t_min: f32, lanes: u32, best: &mut PacketHits) {
+        let leaf = &self.leaves[(node & !LEAF) as usize];
+        for tri in &self.packets[range(leaf.packets)] {
+            for j in 0..distinct(tri) {
+                let (hit, t, u, v) = q.triangle(tri, j, t_min, &best.t);
+                let hit = hit & lanes;
+                if hit == 0 {
+                    continue;
+                }
+                for l in 0..RAYS {
+                    let on = hit >> l & 1 != 0;
+                    best.t[l] = if on { t[l] } else { best.t[l] };
+                    best.u[l] = if on { u[l] } else { best.u[l] };
+                    best.v[l] = if on { v[l] } else { best.v[l] };
+                    best.primitive[l] = if on { tri.primitive[j] } else { best.primitive[l] };
+                }
+                best.mask |= hit;
+            }
+        }
+        for (i, sphere) in &self.spheres[range(leaf.spheres)] {
+            let mut pending = lanes;
+            while pending != 0 {
+                let l = pending.trailing_zeros() as usize;
+                pending &= pending - 1;
+                let ray = q.ray(l);
+                if let Some((t, u, v)) = sphere.intersect(ray.origin.into(), ray.direction.into(), t_min, best.t[l]) {
+                    (best.t[l], best.u[l], best.v[l], best.primitive[l]) = (t, u, v, *i);
+                    best.mask |= 1 << l;
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_packet_in(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: &Lanes) -> u32 {
+        if self.root == EMPTY || live == 0 {
+            return 0;
+        }
+        let q = PacketQuery::new(rays);
+        let mut blocked = 0u32;
+        let mut stack = Stack::<(u32, u32)>::new();
+        stack.push((self.root, live));
+        while let Some((node, lanes)) = stack.pop() {
+            let mut lanes = lanes & !blocked;
+            if lanes == 0 {
+                continue;
+            }
+            if self.one_at_a_time(node, lanes) {
+                while lanes != 0 {
+                    let l = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    if self.occluded_from(&q.ray(l), node, t_min, t_max[l]) {
+                        blocked |= 1 << l;
+                    }
+                }
+                continue;
+            }
+            if node & LEAF != 0 {
+                // The rays entering the leaf, each dropped from `lanes` once something blocks it.
+                let entering = lanes;
+                let leaf = &self.leaves[(node & !LEAF) as usize];
+                'packets: for tri in &self.packets[range(leaf.packets)] {
+                    for j in 0..distinct(tri) {
+                        lanes &= !q.triangle(tri, j, t_min, t_max).0;
+                        if lanes == 0 {
+                            break 'packets;
+                        }
+                    }
+                }
+                for (_, sphere) in &self.spheres[range(leaf.spheres)] {
+                    let mut pending = lanes;
+                    while pending != 0 {
+                        let l = pending.trailing_zeros() as usize;
+                        pending &= pending - 1;
+                        let ray = q.ray(l);
+                        if sphere.intersect(ray.origin.into(), ray.direction.into(), t_min, t_max[l]).is_some() {
+                            lanes &= !(1 << l);
+                        }
+                    }
+                }
+                blocked |= entering & !lanes;
+                continue;
+            }
+            let n = &self.nodes[node as usize];
+            for c in 0..W {
+                let child = n.children[c];
+                if child == EMPTY {
+                    break;
+                }
+                let mask = q.boxes(n, c, t_min, t_max).0 & lanes;
+                if mask != 0 {
+                    stack.push((child, mask));
+                }
+            }
+        }
+        blocked
+    }
+}
