@@ -29,3 +29,26 @@ pub fn wide<R>(f: impl FnOnce() -> R) -> R {
 fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
+
+/// Bit `l` set where lane `l`'s sign bit is: one move-mask instruction per 4-lane half. A lane
+/// loop that ORs each lane's flag shifted by its lane number compiles instead to a masked AND
+/// with the lane weights and a horizontal OR, about a dozen shuffles per mask.
+#[inline(always)]
+pub fn sign_mask8(v: &[f32; 8]) -> u32 {
+    let lo = glam::Vec4::from_slice(&v[..4]).is_negative_bitmask();
+    let hi = glam::Vec4::from_slice(&v[4..]).is_negative_bitmask();
+    lo | hi << 4
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sign_mask_sets_the_bits_of_negative_lanes() {
+        assert_eq!(sign_mask8(&[-1.0, 2.0, 0.0, -0.5, 3.0, -7.0, 1.0, -1e-30]), 0b1010_1001);
+        // +0 is not negative, −0 and negative NaNs are (the sign bit decides).
+        assert_eq!(sign_mask8(&[0.0, -0.0, f32::from_bits(0xffc0_0000), 1.0, 0.0, 0.0, 0.0, 0.0]), 0b110);
+        assert_eq!(wide(|| sign_mask8(&[-1.0; 8])), 0xff);
+    }
+}

@@ -265,7 +265,7 @@ pub fn rasterize(
                     let mut rgb = [TileArray([0.0f32; TILE_PIXELS]); 3];
                     let mut depth = TileArray([0.0f32; TILE_PIXELS]);
                     let mut last = TileArray([0f32; TILE_PIXELS]);
-                    let mut done = TileArray([0u32; TILE_PIXELS]);
+                    let mut done = TileArray([0f32; TILE_PIXELS]);
                     // Runs with a pixel still blending, one bit each (forward runs lie at the
                     // rows' halves: bit `k` is the run at offset `8k`): runs whose pixels have
                     // all stopped are skipped (behind an opaque surface most of a tile's list
@@ -273,11 +273,11 @@ pub fn rasterize(
                     let mut live_runs = u32::MAX;
                     for (k, d) in done.iter_mut().enumerate() {
                         if tx * TILE + k % TILE >= width || ty * TILE + k / TILE >= height {
-                            *d = 1;
+                            *d = -1.0;
                         }
                     }
                     for (k, run) in done.chunks_exact(LANES).enumerate() {
-                        live_runs &= !((run.iter().all(|&d| d != 0) as u32) << k);
+                        live_runs &= !((run.iter().all(|&d| d < 0.0) as u32) << k);
                     }
                     let (left, top) = ((tx * TILE) as f32, (ty * TILE) as f32);
                     let origin = [(tx * TILE) as i32, (ty * TILE) as i32];
