@@ -119,7 +119,8 @@ impl SplatLanes {
         let mut mask = 0u32;
         for g in 0..groups {
             let r0 = window + g * LANES;
-            let (mut one, mut two) = (0u32, 0u32);
+            // Negative where the row has its first (second) run: the masks are the sign bits.
+            let (mut one, mut two) = ([0f32; LANES], [0f32; LANES]);
             let first_out: &mut [f32; LANES] = (&mut out.first[r0..r0 + LANES]).try_into().expect("8 rows");
             let end_out: &mut [f32; LANES] = (&mut out.end[r0..r0 + LANES]).try_into().expect("8 rows");
             let start_out: &mut [u32; LANES] = (&mut out.start[r0..r0 + LANES]).try_into().expect("8 rows");
@@ -147,10 +148,10 @@ impl SplatLanes {
                 // float-to-int conversion saturates in Rust, a dozen instructions per value.
                 const SHIFTER: f32 = 8_388_608.0;
                 start_out[l] = (start + SHIFTER).to_bits() - SHIFTER.to_bits();
-                one |= (a as u32) << l;
-                two |= (b as u32) << l;
+                one[l] = 0.0 - a as u32 as f32;
+                two[l] = 0.0 - b as u32 as f32;
             }
-            mask |= (spread(one) | (spread(two) << 1)) << (2 * r0);
+            mask |= (spread(sign_mask8(&one)) | (spread(sign_mask8(&two)) << 1)) << (2 * r0);
         }
         let row_range = (1u32 << y1).wrapping_sub(1) & !((1u32 << y0) - 1) & rows;
         // Both runs of each row in range.
@@ -325,7 +326,13 @@ pub struct GradLanes {
 impl GradLanes {
     /// The lane sums of splat `s` as one gradient, added in a fixed order.
     pub fn total(&self, s: &SplatLanes) -> crate::project::ProjectedGrad {
-        let sum = |v: &[f32; LANES]| v.iter().sum::<f32>();
+        // Halves added as vectors, then the four sums: a fixed order, so still deterministic.
+        // Summed lane by lane, the compiler paired the x and y sums into two-lane vectors and
+        // carried their accumulators shuffled through the run loop (a store-forwarding stall
+        // per run).
+        let sum = |v: &[f32; LANES]| {
+            (glam::Vec4::from_slice(&v[..LANES / 2]) + glam::Vec4::from_slice(&v[LANES / 2..])).element_sum()
+        };
         // The conic from the exponent's coefficients (halving and doubling are exact).
         let (a, b, c) = (-2.0 * s.qa, -s.qb, -2.0 * s.qc);
         let (x, y) = (sum(&self.x), sum(&self.y));
