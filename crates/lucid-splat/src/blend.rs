@@ -65,12 +65,12 @@ pub struct SplatLanes {
 }
 
 impl SplatLanes {
-    /// The kernel constants of a projected splat.
+    /// The kernel constants of a projected splat, for blend threshold `exp(log_min_alpha)`.
     #[inline(always)]
-    pub fn new(s: &ProjectedSplat, min_alpha: f32) -> Self {
+    pub fn new(s: &ProjectedSplat, log_min_alpha: f32) -> Self {
         let [a, b, c] = s.conic;
         let log_opacity = s.opacity.ln();
-        let reach2 = 2.0 * (log_opacity - min_alpha.ln());
+        let reach2 = 2.0 * (log_opacity - log_min_alpha);
         Self {
             qa: -0.5 * a,
             qb: -b,

@@ -130,6 +130,7 @@ impl PreparedSplat {
 /// (read in order, where the depth order of the binned splats made each read a cache miss).
 fn prepare(splats: &[ProjectedSplat], bins: &TileBins, min_alpha: f32) -> Vec<PreparedSplat> {
     let (width, height) = (bins.tiles_x * TILE, bins.tiles_y * TILE);
+    let log_min_alpha = min_alpha.ln();
     let mut out = vec![PreparedSplat::default(); splats.len()];
     out.par_chunks_mut(1024).zip(splats.par_chunks(1024)).for_each(|(out, splats)| {
         wide(
@@ -137,8 +138,10 @@ fn prepare(splats: &[ProjectedSplat], bins: &TileBins, min_alpha: f32) -> Vec<Pr
             || {
                 for (slot, s) in out.iter_mut().zip(splats) {
                     if s.radius > 0.0 {
-                        *slot =
-                            PreparedSplat { lanes: SplatLanes::new(s, min_alpha), rect: pixel_rect(s, width, height) };
+                        *slot = PreparedSplat {
+                            lanes: SplatLanes::new(s, log_min_alpha),
+                            rect: pixel_rect(s, width, height),
+                        };
                     }
                 }
             },
