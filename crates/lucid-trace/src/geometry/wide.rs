@@ -12,7 +12,7 @@ use std::mem::MaybeUninit;
 
 use glam::{Vec3A, Vec4};
 use lucid_scene::Ray;
-use lucid_scene::simd::wide;
+use lucid_scene::simd::{sign_mask8, wide};
 
 use super::bvh::{CompactShape, Node};
 
@@ -118,7 +118,8 @@ impl RayQuery {
     fn triangles(&self, tri: &Triangle8, t_min: f32, t_max: f32) -> (u32, [f32; W], [f32; W], [f32; W]) {
         let ([dx, dy, dz], [ox, oy, oz]) = (self.d, self.o);
         let (mut ts, mut us, mut vs) = ([0f32; W], [0f32; W], [0f32; W]);
-        let mut mask = 0u32;
+        // Negative where hit: the mask is the sign bits (see `sign_mask8`).
+        let mut hits = [0f32; W];
         for l in 0..W {
             let (e1x, e1y, e1z) = (tri.e1[0][l], tri.e1[1][l], tri.e1[2][l]);
             let (e2x, e2y, e2z) = (tri.e2[0][l], tri.e2[1][l], tri.e2[2][l]);
@@ -140,9 +141,9 @@ impl RayQuery {
             ts[l] = if hit { t } else { f32::INFINITY };
             us[l] = u;
             vs[l] = v;
-            mask |= (hit as u32) << l;
+            hits[l] = 0.0 - hit as u32 as f32;
         }
-        (mask, ts, us, vs)
+        (sign_mask8(&hits), ts, us, vs)
     }
 }
 

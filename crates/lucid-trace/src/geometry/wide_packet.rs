@@ -15,7 +15,7 @@
 
 use glam::Vec3;
 use lucid_scene::Ray;
-use lucid_scene::simd::wide;
+use lucid_scene::simd::{sign_mask8, wide};
 
 use super::wide::{EMPTY, LEAF, Node8, Stack, Triangle8, W, WideBvh, range};
 
@@ -89,7 +89,8 @@ impl PacketQuery {
         let lo = [node.bounds[0][0][c], node.bounds[0][1][c], node.bounds[0][2][c]];
         let hi = [node.bounds[1][0][c], node.bounds[1][1][c], node.bounds[1][2][c]];
         let mut entry = [0f32; RAYS];
-        let mut mask = 0u32;
+        // Negative where entered: the mask is the sign bits (see `sign_mask8`).
+        let mut entered = [0f32; RAYS];
         for l in 0..RAYS {
             let (mut near, mut far) = (t_min, t_max[l]);
             for a in 0..3 {
@@ -100,9 +101,9 @@ impl PacketQuery {
                 far = if last < far { last } else { far };
             }
             entry[l] = near;
-            mask |= ((near <= far) as u32) << l;
+            entered[l] = 0.0 - (near <= far) as u32 as f32;
         }
-        (mask, entry)
+        (sign_mask8(&entered), entry)
     }
 
     /// Möller–Trumbore of triangle `j` of `tri` against every ray: which rays hit it within
@@ -115,7 +116,7 @@ impl PacketQuery {
         let (e2x, e2y, e2z) = (tri.e2[0][j], tri.e2[1][j], tri.e2[2][j]);
         let (p0x, p0y, p0z) = (tri.p0[0][j], tri.p0[1][j], tri.p0[2][j]);
         let (mut ts, mut us, mut vs) = ([0f32; RAYS], [0f32; RAYS], [0f32; RAYS]);
-        let mut mask = 0u32;
+        let mut hits = [0f32; RAYS];
         for l in 0..RAYS {
             let (dx, dy, dz) = (self.d[0][l], self.d[1][l], self.d[2][l]);
             let (ox, oy, oz) = (self.o[0][l], self.o[1][l], self.o[2][l]);
@@ -137,9 +138,9 @@ impl PacketQuery {
             ts[l] = t;
             us[l] = u;
             vs[l] = v;
-            mask |= (hit as u32) << l;
+            hits[l] = 0.0 - hit as u32 as f32;
         }
-        (mask, ts, us, vs)
+        (sign_mask8(&hits), ts, us, vs)
     }
 }
 
