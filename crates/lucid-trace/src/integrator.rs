@@ -89,9 +89,11 @@ impl Frame {
             }
         }
     }
+    #[inline(always)]
     pub(crate) fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
+    #[inline(always)]
     pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
         v.x * self.t + v.y * self.b + v.z * self.n
     }
