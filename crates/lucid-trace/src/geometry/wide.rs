@@ -114,30 +114,22 @@ impl RayQuery {
     /// mask), with their `t` (+∞ where missed) and barycentrics. The same operations in the
     /// same order as [`CompactShape::intersect`], so both give the same numbers.
     #[inline(always)]
-    #[allow(clippy::manual_range_contains)] // `&` of comparisons: no branch in the lane loop
     fn triangles(&self, tri: &Triangle8, t_min: f32, t_max: f32) -> (u32, [f32; W], [f32; W], [f32; W]) {
         let ([dx, dy, dz], [ox, oy, oz]) = (self.d, self.o);
         let (mut ts, mut us, mut vs) = ([0f32; W], [0f32; W], [0f32; W]);
         // Negative where hit: the mask is the sign bits (see `sign_mask8`).
         let mut hits = [0f32; W];
         for l in 0..W {
-            let (e1x, e1y, e1z) = (tri.e1[0][l], tri.e1[1][l], tri.e1[2][l]);
-            let (e2x, e2y, e2z) = (tri.e2[0][l], tri.e2[1][l], tri.e2[2][l]);
-            let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
-            let det = e1x * pvx + e1y * pvy + e1z * pvz;
-            let inv = 1.0 / det;
-            let (tvx, tvy, tvz) = (ox - tri.p0[0][l], oy - tri.p0[1][l], oz - tri.p0[2][l]);
-            let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
-            let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
-            let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
-            let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
-            let hit = (det.abs() >= 1e-12)
-                & (u >= 0.0)
-                & (u <= 1.0)
-                & (v >= 0.0)
-                & (u + v <= 1.0)
-                & (t > t_min)
-                & (t < t_max);
+            let corner = |v: &[[f32; W]; 3]| [v[0][l], v[1][l], v[2][l]];
+            let (hit, t, u, v) = moller_trumbore(
+                [dx, dy, dz],
+                [ox, oy, oz],
+                corner(&tri.p0),
+                corner(&tri.e1),
+                corner(&tri.e2),
+                t_min,
+                t_max,
+            );
             ts[l] = if hit { t } else { f32::INFINITY };
             us[l] = u;
             vs[l] = v;
@@ -145,6 +137,33 @@ impl RayQuery {
         }
         (sign_mask8(&hits), ts, us, vs)
     }
+}
+
+/// Möller–Trumbore for one ray (direction `d`, origin `o`) and one triangle (vertex `p0`,
+/// edges `e1`, `e2`): whether it is hit within `(t_min, t_max)`, and `t` and the barycentrics.
+/// The operations of [`CompactShape::intersect`] in its order, so every query gets the same
+/// numbers; branch-free, for the lane loops of the single-ray and the packet queries.
+#[inline(always)]
+#[allow(clippy::manual_range_contains)] // `&` of comparisons: no branch in the lane loop
+pub(super) fn moller_trumbore(
+    [dx, dy, dz]: [f32; 3],
+    [ox, oy, oz]: [f32; 3],
+    [p0x, p0y, p0z]: [f32; 3],
+    [e1x, e1y, e1z]: [f32; 3],
+    [e2x, e2y, e2z]: [f32; 3],
+    t_min: f32,
+    t_max: f32,
+) -> (bool, f32, f32, f32) {
+    let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
+    let det = e1x * pvx + e1y * pvy + e1z * pvz;
+    let inv = 1.0 / det;
+    let (tvx, tvy, tvz) = (ox - p0x, oy - p0y, oz - p0z);
+    let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
+    let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
+    let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
+    let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
+    let hit = (det.abs() >= 1e-12) & (u >= 0.0) & (u <= 1.0) & (v >= 0.0) & (u + v <= 1.0) & (t > t_min) & (t < t_max);
+    (hit, t, u, v)
 }
 
 /// The 8-wide hierarchy.

@@ -17,7 +17,7 @@ use glam::Vec3;
 use lucid_scene::Ray;
 use lucid_scene::simd::{sign_mask8, wide};
 
-use super::wide::{EMPTY, LEAF, Node8, Stack, Triangle8, W, WideBvh, range};
+use super::wide::{EMPTY, LEAF, Node8, Stack, Triangle8, W, WideBvh, moller_trumbore, range};
 
 /// Rays per packet.
 pub const RAYS: usize = W;
@@ -106,35 +106,19 @@ impl PacketQuery {
         (sign_mask8(&entered), entry)
     }
 
-    /// Möller–Trumbore of triangle `j` of `tri` against every ray: which rays hit it within
-    /// `(t_min, t_max)`, with `t`, `u` and `v`. The operations of `RayQuery::triangles` in its
-    /// order, so a ray gets the same numbers either way.
+    /// Möller–Trumbore of triangle `j` of `tri` against every ray ([`moller_trumbore`], as
+    /// the single-ray query): which rays hit it within `(t_min, t_max)`, with `t`, `u`, `v`.
     #[inline(always)]
-    #[allow(clippy::manual_range_contains)] // `&` of comparisons: no branch in the lane loop
     fn triangle(&self, tri: &Triangle8, j: usize, t_min: f32, t_max: &Lanes) -> (u32, Lanes, Lanes, Lanes) {
-        let (e1x, e1y, e1z) = (tri.e1[0][j], tri.e1[1][j], tri.e1[2][j]);
-        let (e2x, e2y, e2z) = (tri.e2[0][j], tri.e2[1][j], tri.e2[2][j]);
-        let (p0x, p0y, p0z) = (tri.p0[0][j], tri.p0[1][j], tri.p0[2][j]);
+        let corner = |v: &[[f32; W]; 3]| [v[0][j], v[1][j], v[2][j]];
+        let (p0, e1, e2) = (corner(&tri.p0), corner(&tri.e1), corner(&tri.e2));
         let (mut ts, mut us, mut vs) = ([0f32; RAYS], [0f32; RAYS], [0f32; RAYS]);
+        // Negative where hit: the mask is the sign bits (see `sign_mask8`).
         let mut hits = [0f32; RAYS];
         for l in 0..RAYS {
-            let (dx, dy, dz) = (self.d[0][l], self.d[1][l], self.d[2][l]);
-            let (ox, oy, oz) = (self.o[0][l], self.o[1][l], self.o[2][l]);
-            let (pvx, pvy, pvz) = (dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x);
-            let det = e1x * pvx + e1y * pvy + e1z * pvz;
-            let inv = 1.0 / det;
-            let (tvx, tvy, tvz) = (ox - p0x, oy - p0y, oz - p0z);
-            let u = (tvx * pvx + tvy * pvy + tvz * pvz) * inv;
-            let (qvx, qvy, qvz) = (tvy * e1z - tvz * e1y, tvz * e1x - tvx * e1z, tvx * e1y - tvy * e1x);
-            let v = (dx * qvx + dy * qvy + dz * qvz) * inv;
-            let t = (e2x * qvx + e2y * qvy + e2z * qvz) * inv;
-            let hit = (det.abs() >= 1e-12)
-                & (u >= 0.0)
-                & (u <= 1.0)
-                & (v >= 0.0)
-                & (u + v <= 1.0)
-                & (t > t_min)
-                & (t < t_max[l]);
+            let d = [self.d[0][l], self.d[1][l], self.d[2][l]];
+            let o = [self.o[0][l], self.o[1][l], self.o[2][l]];
+            let (hit, t, u, v) = moller_trumbore(d, o, p0, e1, e2, t_min, t_max[l]);
             ts[l] = t;
             us[l] = u;
             vs[l] = v;
