@@ -184,7 +184,9 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
     let mut splat_offsets = Vec::with_capacity(rects.len() + 1);
     let mut splat_pairs = Vec::with_capacity(pairs);
     splat_offsets.push(0);
-    for &(i, (x0, x1, y0, y1)) in &rects {
+    let mut slots = vec![NOT_BINNED; splats.len()];
+    for (k, &(i, (x0, x1, y0, y1))) in rects.iter().enumerate() {
+        slots[i as usize] = k as u32;
         for ty in y0..y1 {
             for tx in x0..x1 {
                 let t = ty * tiles_x + tx;
@@ -194,10 +196,6 @@ pub fn bin(splats: &[ProjectedSplat], width: usize, height: usize) -> TileBins {
             }
         }
         splat_offsets.push(splat_pairs.len());
-    }
-    let mut slots = vec![NOT_BINNED; splats.len()];
-    for (k, &(i, _)) in rects.iter().enumerate() {
-        slots[i as usize] = k as u32;
     }
     let splats = rects.iter().map(|r| r.0).collect();
     TileBins { tiles_x, tiles_y, offsets, ids, splats, splat_offsets, splat_pairs, slots }

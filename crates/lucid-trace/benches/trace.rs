@@ -61,17 +61,7 @@ fn main() {
     };
     // The same rays eight at a time, as the renderer traces them.
     let packets = |rays: &[Ray]| -> Vec<(RayPacket, u32)> {
-        rays.chunks(RAYS)
-            .map(|chunk| {
-                let mut p = RayPacket::default();
-                for (l, r) in chunk.iter().enumerate() {
-                    for a in 0..3 {
-                        (p.origin[a][l], p.direction[a][l]) = (r.origin[a], r.direction[a]);
-                    }
-                }
-                (p, (1u32 << chunk.len()) - 1)
-            })
-            .collect()
+        rays.chunks(RAYS).map(|chunk| (RayPacket::from_rays(chunk), (1u32 << chunk.len()) - 1)).collect()
     };
     let closest_packets = |name: &str, rays: &[Ray]| {
         let packets = packets(rays);

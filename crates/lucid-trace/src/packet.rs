@@ -188,13 +188,7 @@ impl PathTracer {
         let starts: Vec<(Ray, Rng)> = (0..out.len()).map(start).collect();
         let mut first_hits = Vec::with_capacity(starts.len());
         for chunk in starts.chunks(LANES) {
-            let mut origin = Vec3Lanes::default();
-            let mut direction = Vec3Lanes::default();
-            for (l, (ray, _)) in chunk.iter().enumerate() {
-                origin.set(l, ray.origin);
-                direction.set(l, ray.direction);
-            }
-            let rays = RayPacket { origin: origin.rows(), direction: direction.rows() };
+            let rays = RayPacket::from_rays(chunk.iter().map(|(ray, _)| ray));
             let hits = scene.bvh.closest_packet(&rays, (1 << chunk.len()) - 1, 0.0, f32::INFINITY);
             first_hits.extend((0..chunk.len()).map(|l| hits.lane(l)));
         }

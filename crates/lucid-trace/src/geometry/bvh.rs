@@ -348,10 +348,7 @@ mod tests {
                 let got = bvh.closest_packet(&rays, live, 1e-4, f32::INFINITY);
                 let shadow = bvh.occluded_packet(&rays, live, 1e-4, &reach);
                 for l in 0..RAYS {
-                    let ray = Ray {
-                        origin: Vec3::new(rays.origin[0][l], rays.origin[1][l], rays.origin[2][l]),
-                        direction: Vec3::new(rays.direction[0][l], rays.direction[1][l], rays.direction[2][l]),
-                    };
+                    let ray = rays.ray(l);
                     let on = live >> l & 1 != 0;
                     let want = bvh.closest(&ray, 1e-4, f32::INFINITY).filter(|_| on);
                     let have = (got.mask >> l & 1 != 0).then(|| (got.t[l], got.u[l], got.v[l], got.primitive[l]));

@@ -36,6 +36,28 @@ pub struct RayPacket {
     pub direction: [Lanes; 3],
 }
 
+impl RayPacket {
+    /// Up to eight rays in lanes `0..`; lanes past them keep a zero ray (leave them out of a
+    /// query's live mask).
+    pub fn from_rays<'a>(rays: impl IntoIterator<Item = &'a Ray>) -> Self {
+        let mut packet = Self::default();
+        for (l, ray) in rays.into_iter().take(RAYS).enumerate() {
+            for a in 0..3 {
+                (packet.origin[a][l], packet.direction[a][l]) = (ray.origin[a], ray.direction[a]);
+            }
+        }
+        packet
+    }
+
+    /// Lane `l`'s ray.
+    pub fn ray(&self, l: usize) -> Ray {
+        Ray {
+            origin: Vec3::new(self.origin[0][l], self.origin[1][l], self.origin[2][l]),
+            direction: Vec3::new(self.direction[0][l], self.direction[1][l], self.direction[2][l]),
+        }
+    }
+}
+
 /// A packet's closest hits: lane `l` hit something where bit `l` of `mask` is set, at
 /// distance `t[l]`, barycentrics (or sphere coordinates) `u[l]`, `v[l]`, on `primitive[l]`.
 #[derive(Clone, Copy, Debug)]
