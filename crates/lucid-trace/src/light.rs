@@ -201,10 +201,24 @@ impl Light {
 /// their total), and `u` rescaled to a fresh uniform within that primitive's share.
 #[inline]
 pub(crate) fn pick_by_area(cdf: &[f32], area: f32, u: f32) -> (usize, f32) {
+    let (k, target, lo, hi) = area_share(cdf, area, u);
+    (k, rescale_in_share(target, lo, hi))
+}
+
+/// The primitive [`pick_by_area`] picks, the point `u · area` that picks it and the bounds of
+/// its share of the cumulative areas; the packet tracer rescales in its lane loops.
+#[inline(always)]
+pub(crate) fn area_share(cdf: &[f32], area: f32, u: f32) -> (usize, f32, f32, f32) {
     let target = u * area;
     let k = cdf.partition_point(|&c| c <= target).min(cdf.len() - 1);
     let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
-    (k, ((target - lo) / (cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 0.999_999))
+    (k, target, lo, cdf[k])
+}
+
+/// `target` rescaled to a uniform within the share `[lo, hi)`.
+#[inline(always)]
+pub(crate) fn rescale_in_share(target: f32, lo: f32, hi: f32) -> f32 {
+    ((target - lo) / (hi - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 0.999_999)
 }
 
 /// The light sample from `point` towards `light_point` (normal `n`) of an area light of total

@@ -23,10 +23,14 @@ use crate::LightStrategy;
 use crate::bsdf::{Bsdf, Lambertian};
 use crate::geometry::{Intersection, RayPacket, Shape};
 use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index, spawn_origin};
-use crate::light::{Light, LightSample, pick_by_area, point_on_triangle, towards_area_point};
+use crate::light::{Light, LightSample, area_share};
 use crate::material::{Material, SurfaceBsdf};
 use crate::sampling::{Rng, cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::Scene;
+
+mod lanes;
+
+use lanes::{F8, M8, V8};
 
 /// Paths per packet.
 pub const LANES: usize = 8;
@@ -58,6 +62,18 @@ impl Vec3Lanes {
     #[inline(always)]
     fn rows(&self) -> [Lanes; 3] {
         [self.x, self.y, self.z]
+    }
+
+    /// The lanes as a value for lane arithmetic.
+    #[inline(always)]
+    fn v8(&self) -> V8 {
+        V8 { x: F8(self.x), y: F8(self.y), z: F8(self.z) }
+    }
+
+    /// Stores `v`'s lanes.
+    #[inline(always)]
+    fn store(&mut self, v: V8) {
+        (self.x, self.y, self.z) = (v.x.0, v.y.0, v.z.0);
     }
 }
 
@@ -155,8 +171,16 @@ struct Vertices {
 #[derive(Default)]
 struct LightSamples {
     draw: [LightDraw; LANES],
-    /// The point sampled on a triangle light, its normal, the light's area and radiance.
-    light_point: Vec3Lanes,
+    /// A triangle light's draw: the point `u · area` among the cumulative areas, the bounds
+    /// of the picked triangle's share (`light::area_share`) and the second uniform.
+    target: Lanes,
+    share_lo: Lanes,
+    share_hi: Lanes,
+    v: Lanes,
+    /// The picked triangle's vertices and normal, the light's area and radiance.
+    p0: Vec3Lanes,
+    p1: Vec3Lanes,
+    p2: Vec3Lanes,
     light_normal: Vec3Lanes,
     area: Lanes,
     two_sided: [bool; LANES],
@@ -275,8 +299,10 @@ impl PathTracer {
                 paths.alive[l] = false;
                 continue;
             };
-            let ray = Ray { origin: paths.origin.get(l), direction };
-            let hit: Intersection = scene.bvh.interaction(&ray, t, u, v, i);
+            let hit: Intersection = scene
+                .bvh
+                .triangle_interaction(t, u, v, i)
+                .unwrap_or_else(|| scene.bvh.interaction(&Ray { origin: paths.origin.get(l), direction }, t, u, v, i));
             let primitive = &scene.bvh.primitives()[i as usize];
             let material = &scene.materials[primitive.material as usize];
             if first {
@@ -342,10 +368,13 @@ impl PathTracer {
             let u = rng.uniform2();
             let light = &scene.lights[pick];
             if let Light::Area { cdf, shapes, area, radiance, two_sided } = light {
-                let (k, ux) = pick_by_area(cdf, *area, u.x);
+                let (k, target, lo, hi) = area_share(cdf, *area, u.x);
                 if let (Shape::Triangle { p, .. }, normal) = &shapes[k] {
                     lights.draw[l] = LightDraw::Triangle;
-                    lights.light_point.set(l, point_on_triangle(p, Vec2::new(ux, u.y)));
+                    (lights.target[l], lights.share_lo[l], lights.share_hi[l], lights.v[l]) = (target, lo, hi, u.y);
+                    lights.p0.set(l, p[0]);
+                    lights.p1.set(l, p[1]);
+                    lights.p2.set(l, p[2]);
                     lights.light_normal.set(l, *normal);
                     lights.area[l] = *area;
                     lights.two_sided[l] = *two_sided;
@@ -501,26 +530,28 @@ impl BsdfSamples {
 
 impl Paths {
     /// Moves each path with a valid sample on to its next ray, ending the others: every lane
-    /// computed and the results kept where valid, a lane loop that vectorises (per lane with a
-    /// branch, it was a twentieth of the frame).
+    /// computed in lane arithmetic and the results kept where valid (`Frame::to_world`,
+    /// `spawn_origin`; as one lane loop it did not vectorise and cost a twentieth of the frame).
     #[inline(always)]
     fn continue_from(&mut self, vertices: &Vertices, s: &BsdfSamples) {
+        let valid = M8(s.valid);
+        let wi = s.wi.v8();
+        let point = vertices.point.v8();
+        let direction = (wi.x * vertices.t.v8() + wi.y * vertices.b.v8() + wi.z * vertices.n.v8()).normalize();
+        let beta = self.beta.v8() * (s.f.v8() * wi.z.abs() / F8(s.pdf));
+        let normal = vertices.geometric_normal.v8();
+        let offset = 1e-4 * (1.0 + point.abs().max_element());
+        let side = direction.dot(normal).ge(0.0).select(1.0.into(), (-1.0).into());
+        let origin = point + side * offset * normal;
+        self.beta.store(valid.select3(beta, self.beta.v8()));
+        self.origin.store(valid.select3(origin, self.origin.v8()));
+        self.direction.store(valid.select3(direction, self.direction.v8()));
+        self.prev_point.store(valid.select3(point, self.prev_point.v8()));
+        self.prev_pdf = valid.select(F8(s.pdf), F8(self.prev_pdf)).0;
         for l in 0..LANES {
-            let valid = s.valid[l];
-            let wi = s.wi.get(l);
-            let point = vertices.point.get(l);
-            let direction = vertices.frame(l).to_world(wi).normalize();
-            let beta = self.beta.get(l) * (s.f.get(l) * wi.z.abs() / s.pdf[l]);
-            let origin = spawn_origin(point, vertices.geometric_normal.get(l), direction);
-            let keep = |new: Vec3, old: Vec3| if valid { new } else { old };
-            self.beta.set(l, keep(beta, self.beta.get(l)));
-            self.origin.set(l, keep(origin, self.origin.get(l)));
-            self.direction.set(l, keep(direction, self.direction.get(l)));
-            self.prev_point.set(l, keep(point, self.prev_point.get(l)));
-            self.prev_pdf[l] = if valid { s.pdf[l] } else { self.prev_pdf[l] };
-            self.prev_specular[l] = if valid { s.specular[l] } else { self.prev_specular[l] };
-            self.segments[l] += valid as u32;
-            self.alive[l] &= valid;
+            self.prev_specular[l] = if valid.0[l] { s.specular[l] } else { self.prev_specular[l] };
+            self.segments[l] += valid.0[l] as u32;
+            self.alive[l] &= valid.0[l];
         }
     }
 }
@@ -584,26 +615,35 @@ impl LightSamples {
         self.valid[l] = true;
     }
 
-    /// Completes the samples of triangle lights ([`towards_area_point`]) in a lane loop.
+    /// Completes the samples of triangle lights in lane arithmetic: the point on the picked
+    /// triangle (`light::rescale_in_share`, `light::point_on_triangle`) and the sample towards
+    /// it (`light::towards_area_point`), kept where a lane drew a triangle.
     #[inline(always)]
     fn finish_triangles(&mut self, vertices: &Vertices, light_pick: f32) {
+        let on = M8(self.draw.map(|d| d == LightDraw::Triangle));
+        let ux = ((F8(self.target) - F8(self.share_lo))
+            / (F8(self.share_hi) - F8(self.share_lo)).max(f32::MIN_POSITIVE))
+        .clamp(0.0, 0.999_999);
+        // `uniform_triangle` and `point_on_triangle`.
+        let s = ux.sqrt();
+        let (b0, b1) = (1.0 - s, F8(self.v) * s);
+        let light_point = b0 * self.p0.v8() + b1 * self.p1.v8() + (1.0 - b0 - b1) * self.p2.v8();
+        // `towards_area_point`.
+        let d = light_point - vertices.point.v8();
+        let dist2 = d.length_squared();
+        let distance = dist2.sqrt();
+        let wi = d / distance;
+        let cos_light = -wi.dot(self.light_normal.v8());
+        let pdf = dist2 / (cos_light.abs() * F8(self.area));
+        let valid = distance.ne(0.0) & (cos_light.gt(0.0) | M8(self.two_sided)) & pdf.is_finite();
+        self.wi.store(on.select3(wi, self.wi.v8()));
+        self.pdf = on.select(light_pick * pdf, F8(self.pdf)).0;
+        self.distance = on.select(distance, F8(self.distance)).0;
         for l in 0..LANES {
-            if self.draw[l] != LightDraw::Triangle {
-                continue;
+            if on.0[l] {
+                self.delta[l] = false;
+                self.valid[l] = valid.0[l] & (pdf.0[l] > 0.0);
             }
-            let (ls, valid) = towards_area_point(
-                vertices.point.get(l),
-                self.light_point.get(l),
-                self.light_normal.get(l),
-                self.area[l],
-                self.li.get(l),
-                self.two_sided[l],
-            );
-            self.wi.set(l, ls.wi);
-            self.pdf[l] = light_pick * ls.pdf;
-            self.distance[l] = ls.distance;
-            self.delta[l] = false;
-            self.valid[l] = valid & (ls.pdf > 0.0);
         }
     }
 }
