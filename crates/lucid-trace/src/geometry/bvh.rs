@@ -162,12 +162,8 @@ impl Bvh {
     /// The full record of the hit [`Bvh::closest`] found.
     #[inline]
     pub fn interaction(&self, ray: &Ray, t: f32, u: f32, v: f32, primitive: u32) -> Intersection {
-        match &self.primitives[primitive as usize].shape {
-            Shape::Triangle { p, n, uv } => {
-                triangle_interaction(p, *n, *uv, self.frames[primitive as usize], t, u, v, primitive)
-            }
-            sphere => sphere.interaction(ray, t, u, v, primitive),
-        }
+        self.triangle_interaction(t, u, v, primitive)
+            .unwrap_or_else(|| self.primitives[primitive as usize].shape.interaction(ray, t, u, v, primitive))
     }
 
     /// [`Bvh::interaction`] where the hit is on a triangle, whose record needs no ray: the
