@@ -204,18 +204,8 @@ impl PathTracer {
     /// draws only from its own stream, so the results do not depend on which lane traced it
     /// when. The same estimator as [`PathTracer::trace`] for scenes that
     /// [`PathTracer::packet_supports`].
-    pub fn trace_paths(&self, scene: &Scene, start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
+    pub fn trace_paths(&self, scene: &Scene, mut start: impl FnMut(usize) -> (Ray, Rng), out: &mut [PathSample]) {
         debug_assert!(Self::packet_supports(scene));
-        // The camera rays' hits first, eight consecutive paths at a time: those rays (a pixel's
-        // samples) are coherent, and a packet traces them several times faster than one by one.
-        // Later bounces are traced by whichever paths share the lanes then.
-        let starts: Vec<(Ray, Rng)> = (0..out.len()).map(start).collect();
-        let mut first_hits = Vec::with_capacity(starts.len());
-        for chunk in starts.chunks(LANES) {
-            let rays = RayPacket::from_rays(chunk.iter().map(|(ray, _)| ray));
-            let hits = scene.bvh.closest_packet(&rays, (1 << chunk.len()) - 1, 0.0, f32::INFINITY);
-            first_hits.extend((0..chunk.len()).map(|l| hits.lane(l)));
-        }
         let light_pick = light_selection_probability(scene);
         let mut paths = Paths::default();
         let mut rngs: [Rng; LANES] = std::array::from_fn(|_| Rng::new(0, 0));
@@ -224,7 +214,7 @@ impl PathTracer {
         let mut traced: [Option<usize>; LANES] = [None; LANES];
         // Each new path's first hit, until its lane's next closest-hit stage takes it.
         let mut pending: [Option<Option<Hit>>; LANES] = [None; LANES];
-        let mut next = 0;
+        let mut staged = StagedPaths::default();
         let mut vertices = Vertices::default();
         let mut lights = LightSamples::default();
         loop {
@@ -235,12 +225,10 @@ impl PathTracer {
                 if let Some(k) = traced[l].take() {
                     out[k] = PathSample { radiance: paths.radiance.get(l), ..results[l] };
                 }
-                if next < out.len() {
-                    let (ray, rng) = starts[next].clone();
-                    pending[l] = Some(first_hits[next]);
+                if let Some((k, ray, rng, hit)) = staged.next(scene, &mut start, out.len()) {
+                    pending[l] = Some(hit);
                     paths.begin(l, &ray);
-                    (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(next));
-                    next += 1;
+                    (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(k));
                 }
             }
             if !paths.alive.iter().any(|&a| a) {
@@ -558,6 +546,63 @@ impl Paths {
 
 /// A closest hit: `(t, u, v, primitive)`.
 type Hit = (f32, f32, f32, u32);
+
+/// The next paths to start, with their camera rays' hits: eight consecutive paths (a pixel's
+/// samples, whose camera rays are coherent) traced as one packet, several times faster than
+/// one by one; later bounces are traced by whichever paths share the lanes then.
+struct StagedPaths {
+    rays: [Ray; LANES],
+    rngs: [Option<Rng>; LANES],
+    hits: [Option<Hit>; LANES],
+    /// The first path staged, and how many are staged and taken.
+    first: usize,
+    len: usize,
+    taken: usize,
+}
+
+impl Default for StagedPaths {
+    fn default() -> Self {
+        Self {
+            rays: [Ray { origin: Vec3::ZERO, direction: Vec3::Z }; LANES],
+            rngs: [const { None }; LANES],
+            hits: [None; LANES],
+            first: 0,
+            len: 0,
+            taken: 0,
+        }
+    }
+}
+
+impl StagedPaths {
+    /// Path `k`'s camera ray, random stream and first hit, for the paths `0..count` in order
+    /// (`start(k)` is called once per path, in that order).
+    fn next(
+        &mut self,
+        scene: &Scene,
+        start: &mut impl FnMut(usize) -> (Ray, Rng),
+        count: usize,
+    ) -> Option<(usize, Ray, Rng, Option<Hit>)> {
+        if self.taken == self.len {
+            self.first += self.len;
+            self.len = LANES.min(count.saturating_sub(self.first));
+            self.taken = 0;
+            if self.len == 0 {
+                return None;
+            }
+            for l in 0..self.len {
+                let (ray, rng) = start(self.first + l);
+                (self.rays[l], self.rngs[l]) = (ray, Some(rng));
+            }
+            let packet = RayPacket::from_rays(&self.rays[..self.len]);
+            let hits = scene.bvh.closest_packet(&packet, (1 << self.len) - 1, 0.0, f32::INFINITY);
+            self.hits = std::array::from_fn(|l| hits.lane(l));
+        }
+        let l = self.taken;
+        self.taken += 1;
+        let rng = self.rngs[l].take().expect("a staged path has its stream");
+        Some((self.first + l, self.rays[l], rng, self.hits[l]))
+    }
+}
 
 /// Each live path's closest hit: the `pending` first hit of a new path, the others' rays
 /// traced together.

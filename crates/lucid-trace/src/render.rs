@@ -78,19 +78,32 @@ pub fn render(
     let forward = camera.pinhole().forward();
     let spp = settings.spp.max(1);
     let done = AtomicUsize::new(0);
+    let packets = PathTracer::packet_supports(scene);
     let rows: Vec<(Vec<[[f32; 4]; 4]>, u64)> = (0..h)
         .into_par_iter()
         .map(|j| {
-            let mut rays = 0u64;
-            let row = (0..w)
-                .map(|i| {
-                    let (pixel, r) = render_pixel(scene, camera, settings, forward, spp, i, j, w);
-                    rays += r;
-                    pixel
-                })
-                .collect();
+            let row = if packets {
+                render_row_in_packets(scene, camera, settings, forward, spp, j, w)
+            } else {
+                let mut rays = 0u64;
+                let pixels = (0..w)
+                    .map(|i| {
+                        let mut pixel = PixelSum::default();
+                        let mut rng = Rng::new(settings.seed, pixel_index(i, j, w));
+                        for _ in 0..spp {
+                            let jitter = rng.uniform2();
+                            let lens = rng.uniform2();
+                            let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                            pixel.add(&ray, &settings.integrator.trace(scene, ray, &mut rng), forward);
+                        }
+                        rays += pixel.rays;
+                        pixel.finish(spp, settings.integrator.hide_emitters)
+                    })
+                    .collect();
+                (pixels, rays)
+            };
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            (row, rays)
+            row
         })
         .collect();
     let plane = |c: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.0.iter().map(|p| p[c])).collect());
@@ -104,83 +117,115 @@ pub fn render(
     }
 }
 
+fn pixel_index(i: usize, j: usize, width: usize) -> u64 {
+    (j * width + i) as u64
+}
+
+/// Row `j`'s pixels and rays traced, the samples of several pixels traced by one
+/// [`PathTracer::trace_paths`]: its lanes take the next path as theirs end, so lanes idle
+/// only while the last few paths of the call finish, which is a large part of a call with
+/// only one pixel's samples.
 #[allow(clippy::too_many_arguments)]
-fn render_pixel(
+fn render_row_in_packets(
     scene: &Scene,
     camera: &RenderCamera,
     settings: &RenderSettings,
     forward: Vec3,
     spp: u32,
-    i: usize,
     j: usize,
     width: usize,
-) -> ([[f32; 4]; 4], u64) {
-    let pixel = (j * width + i) as u64;
+) -> (Vec<[[f32; 4]; 4]>, u64) {
+    let spp = spp as usize;
+    // Pixels per call: enough paths that the lanes' idle tail is a small part of the call,
+    // few enough that its buffers stay in the cache and in the allocator's small pages.
+    let chunk = PATHS_PER_CALL.div_ceil(spp).max(1);
+    let mut samples = vec![PathSample::default(); chunk * spp];
+    let mut camera_rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; chunk * spp];
     let mut rays = 0u64;
-    let (mut radiance, mut normal, mut albedo) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
-    let (mut alpha, mut depth) = (0.0f32, 0.0f32);
-    let mut add = |ray: &lucid_scene::Ray, s: &PathSample| {
-        rays += s.rays as u64;
-        // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
-        // poisoning the pixel; a finite image is part of the contract.
-        if s.radiance.is_finite() {
-            radiance += s.radiance;
-        }
-        if s.alpha > 0.0 {
-            alpha += 1.0;
-            depth += s.distance * ray.direction.dot(forward);
-            normal += s.normal;
-            albedo += s.albedo;
-        }
-    };
-    if PathTracer::packet_supports(scene) {
-        // Each sample has its own generator, so that eight of them can be traced side by side:
-        // the pixel's stream started at a state hashed from the sample's index (PCG streams
-        // whose increments differ by a little are correlated; one stream at far-apart states
-        // is not).
-        let mut samples = vec![PathSample::default(); spp as usize];
-        let mut camera_rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; spp as usize];
+    let mut pixels = Vec::with_capacity(width);
+    for first in (0..width).step_by(chunk) {
+        let n = chunk.min(width - first) * spp;
         settings.integrator.trace_paths(
             scene,
             |k| {
-                let mut rng = Rng::new(settings.seed ^ mix(pixel * spp as u64 + k as u64), pixel);
+                // Each sample has its own generator, so that eight of them can be traced side
+                // by side: the pixel's stream started at a state hashed from the sample's index
+                // (PCG streams whose increments differ by a little are correlated; one stream
+                // at far-apart states is not).
+                let (i, s) = (first + k / spp, k % spp);
+                let pixel = pixel_index(i, j, width);
+                let mut rng = Rng::new(settings.seed ^ mix(pixel * spp as u64 + s as u64), pixel);
                 let jitter = rng.uniform2();
                 let lens = rng.uniform2();
                 camera_rays[k] = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
                 (camera_rays[k], rng)
             },
-            &mut samples,
+            &mut samples[..n],
         );
-        for (ray, sample) in camera_rays.iter().zip(&samples) {
-            add(ray, sample);
-        }
-    } else {
-        let mut rng = Rng::new(settings.seed, pixel);
-        for _ in 0..spp {
-            let jitter = rng.uniform2();
-            let lens = rng.uniform2();
-            let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
-            let s = settings.integrator.trace(scene, ray, &mut rng);
-            add(&ray, &s);
+        for (rays_of_pixel, samples_of_pixel) in camera_rays[..n].chunks(spp).zip(samples[..n].chunks(spp)) {
+            let mut pixel = PixelSum::default();
+            for (ray, sample) in rays_of_pixel.iter().zip(samples_of_pixel) {
+                pixel.add(ray, sample, forward);
+            }
+            rays += pixel.rays;
+            pixels.push(pixel.finish(spp as u32, settings.integrator.hide_emitters));
         }
     }
-    let n = spp as f32;
-    // Straight alpha: the colour of covered samples is divided by coverage when some samples
-    // miss; background radiance (visible environment) keeps alpha 1 via `hide_emitters` off.
-    let (colour, a) = if settings.integrator.hide_emitters && alpha > 0.0 {
-        (radiance / alpha, alpha / n)
-    } else if settings.integrator.hide_emitters {
-        (Vec3::ZERO, 0.0)
-    } else {
-        (radiance / n, 1.0)
-    };
-    let covered = alpha.max(1.0);
-    let d = depth / covered;
-    let pixel = [
-        colour.extend(a).to_array(),
-        [d, d, d, a],
-        normal.normalize_or_zero().extend(a).to_array(),
-        (albedo / covered).extend(a).to_array(),
-    ];
-    (pixel, rays)
+    (pixels, rays)
+}
+
+/// Paths per [`PathTracer::trace_paths`] call of the packet renderer (at least).
+const PATHS_PER_CALL: usize = 1024;
+
+/// A pixel's samples summed.
+#[derive(Default)]
+struct PixelSum {
+    radiance: Vec3,
+    normal: Vec3,
+    albedo: Vec3,
+    /// Samples whose camera ray hit geometry.
+    alpha: f32,
+    depth: f32,
+    rays: u64,
+}
+
+impl PixelSum {
+    fn add(&mut self, ray: &lucid_scene::Ray, s: &PathSample, forward: Vec3) {
+        self.rays += s.rays as u64;
+        // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
+        // poisoning the pixel; a finite image is part of the contract.
+        if s.radiance.is_finite() {
+            self.radiance += s.radiance;
+        }
+        if s.alpha > 0.0 {
+            self.alpha += 1.0;
+            self.depth += s.distance * ray.direction.dot(forward);
+            self.normal += s.normal;
+            self.albedo += s.albedo;
+        }
+    }
+
+    /// Colour, depth, normal and albedo with alpha.
+    fn finish(&self, spp: u32, hide_emitters: bool) -> [[f32; 4]; 4] {
+        let n = spp as f32;
+        let (radiance, alpha) = (self.radiance, self.alpha);
+        // Straight alpha: the colour of covered samples is divided by coverage when some
+        // samples miss; background radiance (visible environment) keeps alpha 1 via
+        // `hide_emitters` off.
+        let (colour, a) = if hide_emitters && alpha > 0.0 {
+            (radiance / alpha, alpha / n)
+        } else if hide_emitters {
+            (Vec3::ZERO, 0.0)
+        } else {
+            (radiance / n, 1.0)
+        };
+        let covered = alpha.max(1.0);
+        let d = self.depth / covered;
+        [
+            colour.extend(a).to_array(),
+            [d, d, d, a],
+            self.normal.normalize_or_zero().extend(a).to_array(),
+            (self.albedo / covered).extend(a).to_array(),
+        ]
+    }
 }
