@@ -8,7 +8,7 @@ use lucid_scene::Ray;
 
 use super::wide::WideBvh;
 use super::wide_packet::{PacketHits, RAYS, RayPacket};
-use super::{Aabb, Intersection, Primitive, Shape, TriangleFrame, triangle_interaction};
+use super::{Aabb, Intersection, Primitive, Shape, TriangleFrame, triangle_interaction, triangle_normal};
 
 const BINS: usize = 16;
 /// The binary tree is split down to pairs: which subtrees become the 8-wide tree's triangle
@@ -123,7 +123,7 @@ impl Bvh {
         if !items.is_empty() {
             build(&mut items, 0, &mut nodes);
         }
-        let ordered: Vec<Primitive> = items.iter().map(|it| primitives[it.index]).collect();
+        let ordered: Vec<Primitive> = items.iter().map(|it| without_flat_normals(primitives[it.index])).collect();
         let compact: Vec<CompactShape> = ordered.iter().map(|p| CompactShape::new(&p.shape)).collect();
         let bounds = nodes.first().map(|n: &Node| n.bounds).unwrap_or(Aabb::EMPTY);
         let frames = ordered
@@ -198,6 +198,22 @@ impl Bvh {
     pub fn occluded_packet(&self, rays: &RayPacket, live: u32, t_min: f32, t_max: &[f32; RAYS]) -> u32 {
         self.wide.occluded_packet(rays, live, t_min, t_max)
     }
+}
+
+/// A triangle whose three vertex normals are one and the same, along the face's own normal
+/// (either way), shades as the face: interpolating and normalising them at every hit gives
+/// the geometric normal to rounding, for a square root and a division per hit (the faces of
+/// procedural quads and boxes, a flat-shaded mesh's).
+fn without_flat_normals(mut primitive: Primitive) -> Primitive {
+    if let Shape::Triangle { p, n: normals @ Some(_), .. } = &mut primitive.shape
+        && let Some([a, b, c]) = *normals
+        && a == b
+        && b == c
+        && a.normalize_or_zero().dot(triangle_normal(p)).abs() >= 1.0 - 1e-6
+    {
+        *normals = None;
+    }
+    primitive
 }
 
 /// Builds the subtree of `items` into `nodes`, returning its index. Items are reordered.
@@ -302,6 +318,23 @@ mod tests {
 
     fn primitive(shape: Shape) -> Primitive {
         Primitive { shape, material: 0, light: None, interior_medium: None, exterior_medium: None }
+    }
+
+    #[test]
+    fn only_flat_vertex_normals_are_dropped() {
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let normals =
+            |n: [Vec3; 3]| match without_flat_normals(primitive(Shape::Triangle { p, n: Some(n), uv: None })).shape {
+                Shape::Triangle { n, .. } => n,
+                Shape::Sphere { .. } => unreachable!(),
+            };
+        // Along the face either way: dropped; the hit then shades with the face normal.
+        assert_eq!(normals([Vec3::Z; 3]), None);
+        assert_eq!(normals([-Vec3::Z; 3]), None);
+        // Smooth shading, or one tilted normal for the whole face: kept.
+        let tilted = Vec3::new(0.1, 0.0, 1.0).normalize();
+        assert!(normals([Vec3::Z, tilted, Vec3::Z]).is_some());
+        assert!(normals([tilted; 3]).is_some());
     }
 
     /// A point in the cube of side `side` around the origin.
