@@ -20,9 +20,9 @@ use lucid_scene::Ray;
 use lucid_scene::simd::wide;
 
 use crate::LightStrategy;
-use crate::bsdf::{Bsdf, Lambertian};
+use crate::bsdf::Bsdf;
 use crate::geometry::{Intersection, RayPacket, Shape};
-use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index, spawn_origin};
+use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index};
 use crate::light::{Light, LightSample, area_share};
 use crate::material::{Material, SurfaceBsdf};
 use crate::sampling::{Rng, cosine_hemisphere, cosine_hemisphere_pdf};
@@ -388,56 +388,83 @@ impl PathTracer {
         lights: &LightSamples,
         out: &mut [PathSample; LANES],
     ) {
-        // Lane loop: the diffuse BSDF's value and density, the MIS weight and the contribution.
-        let mut contribution = Vec3Lanes::default();
-        let mut shadow = [false; LANES];
-        for l in 0..LANES {
-            if !lights.valid[l] {
-                continue;
-            }
-            let wo = vertices.wo.get(l);
-            let wi = vertices.frame(l).to_local(lights.wi.get(l));
-            let (f, bsdf_pdf) = match vertices.kind[l] {
-                VertexKind::Diffuse => {
-                    let lambert = Lambertian { albedo: vertices.albedo.get(l) };
-                    (lambert.eval(wo, wi), lambert.pdf(wo, wi))
+        let mut nee = wide(
+            #[inline(always)]
+            || self.diffuse_next_events(paths, vertices, lights),
+        );
+        if vertices.kind.contains(&VertexKind::General) {
+            for l in 0..LANES {
+                if vertices.kind[l] != VertexKind::General || !lights.valid[l] {
+                    continue;
                 }
-                _ => {
-                    let bsdf = vertices.bsdf(l);
-                    let f = bsdf.eval(wo, wi);
-                    (f, if f == Vec3::ZERO { 0.0 } else { bsdf.pdf(wo, wi) })
+                let wo = vertices.wo.get(l);
+                let wi = vertices.frame(l).to_local(lights.wi.get(l));
+                let bsdf = vertices.bsdf(l);
+                let f = bsdf.eval(wo, wi);
+                if f == Vec3::ZERO {
+                    continue;
                 }
-            };
-            if f == Vec3::ZERO {
-                continue;
+                let light_pdf = lights.pdf[l];
+                let weight = self.light_sample_weight(lights.delta[l], light_pdf, bsdf.pdf(wo, wi));
+                nee.contribution.set(l, paths.beta.get(l) * f * wi.z.abs() * lights.li.get(l) * weight / light_pdf);
+                nee.shadow[l] = true;
             }
-            let light_pdf = lights.pdf[l];
-            let weight = self.light_sample_weight(lights.delta[l], light_pdf, bsdf_pdf);
-            contribution.set(l, paths.beta.get(l) * f * wi.z.abs() * lights.li.get(l) * weight / light_pdf);
-            shadow[l] = true;
         }
         // The shadow rays, traced together.
-        let mut rays = Vec3Lanes::default();
-        let mut reach = [0f32; LANES];
         let mut live = 0u32;
         for l in 0..LANES {
-            if !shadow[l] {
-                continue;
-            }
-            let wi = lights.wi.get(l);
-            rays.set(l, spawn_origin(vertices.point.get(l), vertices.geometric_normal.get(l), wi));
-            let distance = lights.distance[l];
-            reach[l] = if distance.is_finite() { distance * (1.0 - 1e-3) } else { f32::INFINITY };
-            live |= 1 << l;
-            out[l].rays += 1;
+            live |= (nee.shadow[l] as u32) << l;
+            out[l].rays += nee.shadow[l] as u32;
         }
-        let packet = RayPacket { origin: rays.rows(), direction: lights.wi.rows() };
+        if live == 0 {
+            return;
+        }
+        let (origin, reach) = wide(
+            #[inline(always)]
+            || lights.shadow_rays(vertices),
+        );
+        let packet = RayPacket { origin: origin.rows(), direction: lights.wi.rows() };
         let blocked = scene.bvh.occluded_packet(&packet, live, 0.0, &reach);
-        for l in 0..LANES {
-            if (live & !blocked) >> l & 1 != 0 {
-                paths.radiance.set(l, paths.radiance.get(l) + contribution.get(l));
+        let lit = M8(std::array::from_fn(|l| (live & !blocked) >> l & 1 != 0));
+        wide(
+            #[inline(always)]
+            || {
+                let radiance = paths.radiance.v8();
+                paths.radiance.store(lit.select3(radiance + nee.contribution.v8(), radiance));
+            },
+        );
+    }
+
+    /// The next-event estimates of the diffuse vertices in lane arithmetic: the Lambertian
+    /// BSDF's value and density (`Lambertian::eval`, `pdf`), the MIS weight
+    /// ([`PathTracer::light_sample_weight`]) and the contribution, with which lanes need a
+    /// shadow ray. Other lanes need none here.
+    #[inline(always)]
+    fn diffuse_next_events(&self, paths: &Paths, vertices: &Vertices, lights: &LightSamples) -> NextEvents {
+        let world = lights.wi.v8();
+        let wi = V8 { x: world.dot(vertices.t.v8()), y: world.dot(vertices.b.v8()), z: world.dot(vertices.n.v8()) };
+        let same_side = (vertices.wo.v8().z * wi.z).gt(0.0);
+        let f = same_side.select3(vertices.albedo.v8() * F8::from(FRAC_1_PI), V8::default());
+        let bsdf_pdf = same_side.select(wi.z.abs().max(0.0) * FRAC_1_PI, 0.0.into());
+        let light_pdf = F8(lights.pdf);
+        let weight = match self.strategy {
+            LightStrategy::Mis => {
+                // `power_heuristic`.
+                let (a, b) = (light_pdf * light_pdf, bsdf_pdf * bsdf_pdf);
+                let sum = a + b;
+                sum.eq(0.0).select(0.0.into(), a / sum)
             }
-        }
+            LightStrategy::NextEventOnly => 1.0.into(),
+            LightStrategy::BsdfOnly => 0.0.into(),
+        };
+        let weight = M8(lights.delta).select(1.0.into(), weight);
+        let contribution = paths.beta.v8() * f * wi.z.abs() * lights.li.v8() * weight / light_pdf;
+        let nonzero = f.x.ne(0.0) | f.y.ne(0.0) | f.z.ne(0.0);
+        let diffuse = M8(vertices.kind.map(|k| k == VertexKind::Diffuse));
+        let mut nee = NextEvents::default();
+        nee.contribution.store(contribution);
+        nee.shadow = (diffuse & M8(lights.valid) & nonzero).0;
+        nee
     }
 
     /// Samples each live vertex's BSDF for the next ray, and plays Russian roulette.
@@ -481,6 +508,13 @@ impl PathTracer {
             }
         }
     }
+}
+
+/// One bounce's next-event estimates: each lane's contribution if its shadow ray is unblocked.
+#[derive(Default)]
+struct NextEvents {
+    contribution: Vec3Lanes,
+    shadow: [bool; LANES],
 }
 
 /// One bounce's BSDF samples.
@@ -527,10 +561,7 @@ impl Paths {
         let point = vertices.point.v8();
         let direction = (wi.x * vertices.t.v8() + wi.y * vertices.b.v8() + wi.z * vertices.n.v8()).normalize();
         let beta = self.beta.v8() * (s.f.v8() * wi.z.abs() / F8(s.pdf));
-        let normal = vertices.geometric_normal.v8();
-        let offset = 1e-4 * (1.0 + point.abs().max_element());
-        let side = direction.dot(normal).ge(0.0).select(1.0.into(), (-1.0).into());
-        let origin = point + side * offset * normal;
+        let origin = spawn_origin8(point, vertices.geometric_normal.v8(), direction);
         self.beta.store(valid.select3(beta, self.beta.v8()));
         self.origin.store(valid.select3(origin, self.origin.v8()));
         self.direction.store(valid.select3(direction, self.direction.v8()));
@@ -542,6 +573,14 @@ impl Paths {
             self.alive[l] &= valid.0[l];
         }
     }
+}
+
+/// [`crate::integrator::spawn_origin`] in every lane.
+#[inline(always)]
+fn spawn_origin8(point: V8, normal: V8, direction: V8) -> V8 {
+    let offset = 1e-4 * (1.0 + point.abs().max_element());
+    let side = direction.dot(normal).ge(0.0).select(1.0.into(), (-1.0).into());
+    point + side * offset * normal
 }
 
 /// A closest hit: `(t, u, v, primitive)`.
@@ -658,6 +697,17 @@ impl LightSamples {
         self.distance[l] = ls.distance;
         self.delta[l] = ls.delta;
         self.valid[l] = true;
+    }
+
+    /// The shadow rays' origins (`spawn_origin`) and reaches, in every lane.
+    #[inline(always)]
+    fn shadow_rays(&self, vertices: &Vertices) -> (Vec3Lanes, Lanes) {
+        let origin = spawn_origin8(vertices.point.v8(), vertices.geometric_normal.v8(), self.wi.v8());
+        let distance = F8(self.distance);
+        let reach = distance.is_finite().select(distance * (1.0 - 1e-3), f32::INFINITY.into());
+        let mut rows = Vec3Lanes::default();
+        rows.store(origin);
+        (rows, reach.0)
     }
 
     /// Completes the samples of triangle lights in lane arithmetic: the point on the picked

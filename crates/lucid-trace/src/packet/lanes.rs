@@ -102,6 +102,7 @@ impl F8 {
     compare!(gt, >);
     compare!(ge, >=);
     compare!(ne, !=);
+    compare!(eq, ==);
 
     /// `f32::sqrt` per lane.
     #[inline(always)]
