@@ -614,7 +614,10 @@ impl Default for StagedPaths {
 
 impl StagedPaths {
     /// Path `k`'s camera ray, random stream and first hit, for the paths `0..count` in order
-    /// (`start(k)` is called once per path, in that order).
+    /// (`start(k)` is called once per path, in that order). Inlined into the caller, where
+    /// the tuple stays in registers: returned through memory, written field by field and read
+    /// back whole, it stalled every path's start.
+    #[inline(always)]
     fn next(
         &mut self,
         scene: &Scene,
@@ -622,24 +625,32 @@ impl StagedPaths {
         count: usize,
     ) -> Option<(usize, Ray, Rng, Option<Hit>)> {
         if self.taken == self.len {
-            self.first += self.len;
-            self.len = LANES.min(count.saturating_sub(self.first));
-            self.taken = 0;
+            self.stage(scene, start, count);
             if self.len == 0 {
                 return None;
             }
-            for l in 0..self.len {
-                let (ray, rng) = start(self.first + l);
-                (self.rays[l], self.rngs[l]) = (ray, Some(rng));
-            }
-            let packet = RayPacket::from_rays(&self.rays[..self.len]);
-            let hits = scene.bvh.closest_packet(&packet, (1 << self.len) - 1, 0.0, f32::INFINITY);
-            self.hits = std::array::from_fn(|l| hits.lane(l));
         }
         let l = self.taken;
         self.taken += 1;
         let rng = self.rngs[l].take().expect("a staged path has its stream");
         Some((self.first + l, self.rays[l], rng, self.hits[l]))
+    }
+
+    /// Stages the next eight paths (fewer at the end) and traces their camera rays.
+    #[inline(never)]
+    fn stage(&mut self, scene: &Scene, start: &mut impl FnMut(usize) -> (Ray, Rng), count: usize) {
+        self.first += self.len;
+        self.len = LANES.min(count.saturating_sub(self.first));
+        self.taken = 0;
+        for l in 0..self.len {
+            let (ray, rng) = start(self.first + l);
+            (self.rays[l], self.rngs[l]) = (ray, Some(rng));
+        }
+        if self.len > 0 {
+            let packet = RayPacket::from_rays(&self.rays[..self.len]);
+            let hits = scene.bvh.closest_packet(&packet, (1 << self.len) - 1, 0.0, f32::INFINITY);
+            self.hits = std::array::from_fn(|l| hits.lane(l));
+        }
     }
 }
 

@@ -106,7 +106,15 @@ pub fn render(
             row
         })
         .collect();
-    let plane = |c: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.0.iter().map(|p| p[c])).collect());
+    let plane = |c: usize| {
+        // Sized up front: collected from the rows' iterator it grew by reallocation, each
+        // growth faulting in fresh pages.
+        let mut pixels = Vec::with_capacity(w * h);
+        for row in &rows {
+            pixels.extend(row.0.iter().map(|p| p[c]));
+        }
+        Image::from_pixels(w, h, pixels)
+    };
     RenderOutput {
         colour: plane(0),
         depth: plane(1),

@@ -170,7 +170,7 @@ impl Bvh {
     /// caller then builds a ray only for other shapes (one built for every hit was stored
     /// field by field and reloaded whole, a stall of a tenth of the packet tracer's surface
     /// stage).
-    #[inline]
+    #[inline(always)]
     pub fn triangle_interaction(&self, t: f32, u: f32, v: f32, primitive: u32) -> Option<Intersection> {
         match &self.primitives[primitive as usize].shape {
             Shape::Triangle { p, n, uv } => {

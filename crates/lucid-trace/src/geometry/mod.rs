@@ -191,7 +191,7 @@ pub(crate) fn triangle_normal(p: &[Vec3; 3]) -> Vec3 {
 
 /// The full record of a hit at barycentrics `(u, v)` of a triangle.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 pub(crate) fn triangle_interaction(
     p: &[Vec3; 3],
     n: Option<[Vec3; 3]>,
