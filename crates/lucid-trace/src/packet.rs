@@ -21,7 +21,7 @@ use lucid_scene::simd::wide;
 
 use crate::LightStrategy;
 use crate::bsdf::Bsdf;
-use crate::geometry::{Intersection, RayPacket, Shape};
+use crate::geometry::{Intersection, PacketHits, RayPacket, Shape};
 use crate::integrator::{Frame, PathSample, PathTracer, light_selection_probability, pick_light_index};
 use crate::light::{Light, LightSample, area_share};
 use crate::material::{Material, SurfaceBsdf};
@@ -212,8 +212,10 @@ impl PathTracer {
         let mut camera_rays = [Ray { origin: Vec3::ZERO, direction: Vec3::Z }; LANES];
         let mut results = [PathSample::default(); LANES];
         let mut traced: [Option<usize>; LANES] = [None; LANES];
-        // Each new path's first hit, until its lane's next closest-hit stage takes it.
-        let mut pending: [Option<Option<Hit>>; LANES] = [None; LANES];
+        // New paths' first hits, in the lanes of `fresh`, until their lane's next closest-hit
+        // stage takes them.
+        let mut first = no_hits();
+        let mut fresh = 0u32;
         let mut staged = StagedPaths::default();
         let mut vertices = Vertices::default();
         let mut lights = LightSamples::default();
@@ -226,7 +228,9 @@ impl PathTracer {
                     out[k] = PathSample { radiance: paths.radiance.get(l), ..results[l] };
                 }
                 if let Some((k, ray, rng, hit)) = staged.next(scene, &mut start, out.len()) {
-                    pending[l] = Some(hit);
+                    first.mask = first.mask & !(1 << l) | (hit.is_some() as u32) << l;
+                    (first.t[l], first.u[l], first.v[l], first.primitive[l]) = hit.unwrap_or((0.0, 0.0, 0.0, 0));
+                    fresh |= 1 << l;
                     paths.begin(l, &ray);
                     (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(k));
                 }
@@ -234,7 +238,7 @@ impl PathTracer {
             if !paths.alive.iter().any(|&a| a) {
                 break;
             }
-            let hits = closest_hits(scene, &paths, &mut pending, &mut results);
+            let hits = closest_hits(scene, &paths, &first, &mut fresh, &mut results);
             self.surface_events(scene, &mut paths, &hits, &mut vertices, &camera_rays, light_pick, &mut results);
             if vertices.kind.iter().all(|&k| k == VertexKind::None) {
                 continue;
@@ -261,7 +265,7 @@ impl PathTracer {
         &self,
         scene: &Scene,
         paths: &mut Paths,
-        hits: &[Option<(f32, f32, f32, u32)>; LANES],
+        hits: &PacketHits,
         vertices: &mut Vertices,
         camera_rays: &[Ray; LANES],
         light_pick: f32,
@@ -276,7 +280,7 @@ impl PathTracer {
             let beta = paths.beta.get(l);
             let prev_pdf = (!paths.prev_specular[l]).then_some(paths.prev_pdf[l]);
             let first = paths.segments[l] == 1;
-            let Some((t, u, v, i)) = hits[l] else {
+            let Some((t, u, v, i)) = hits.lane(l) else {
                 if let Some(env) = scene.environment
                     && !(first && self.hide_emitters)
                     && let Some((radiance, env_pdf)) = scene.lights[env].environment(direction)
@@ -654,24 +658,40 @@ impl StagedPaths {
     }
 }
 
-/// Each live path's closest hit: the `pending` first hit of a new path, the others' rays
-/// traced together.
+/// No hits in any lane.
+fn no_hits() -> PacketHits {
+    PacketHits { mask: 0, t: [0.0; LANES], u: [0.0; LANES], v: [0.0; LANES], primitive: [0; LANES] }
+}
+
+/// Each live path's closest hit: the `first` hit of a new path in a lane of `fresh` (which
+/// is then cleared), the others' rays traced together. As lanes of one packet rather than an
+/// array of options, which were written field by field and read back whole (a store
+/// forwarding stall per lane).
 fn closest_hits(
     scene: &Scene,
     paths: &Paths,
-    pending: &mut [Option<Option<Hit>>; LANES],
+    first: &PacketHits,
+    fresh: &mut u32,
     out: &mut [PathSample; LANES],
-) -> [Option<Hit>; LANES] {
+) -> PacketHits {
     let mut live = 0u32;
     for l in 0..LANES {
-        if paths.alive[l] {
-            live |= ((pending[l].is_none()) as u32) << l;
-            out[l].rays += 1;
-        }
+        live |= (paths.alive[l] as u32) << l;
+        out[l].rays += paths.alive[l] as u32;
     }
     let rays = RayPacket { origin: paths.origin.rows(), direction: paths.direction.rows() };
-    let hits = scene.bvh.closest_packet(&rays, live, 0.0, f32::INFINITY);
-    std::array::from_fn(|l| pending[l].take().unwrap_or_else(|| hits.lane(l)))
+    let mut hits = scene.bvh.closest_packet(&rays, live & !*fresh, 0.0, f32::INFINITY);
+    let new = *fresh;
+    for l in 0..LANES {
+        let on = new >> l & 1 != 0;
+        hits.t[l] = if on { first.t[l] } else { hits.t[l] };
+        hits.u[l] = if on { first.u[l] } else { hits.u[l] };
+        hits.v[l] = if on { first.v[l] } else { hits.v[l] };
+        hits.primitive[l] = if on { first.primitive[l] } else { hits.primitive[l] };
+    }
+    hits.mask = hits.mask & !new | first.mask & new;
+    *fresh = 0;
+    hits
 }
 
 impl Vertices {
