@@ -135,6 +135,12 @@ impl Default for Paths {
 }
 
 impl Paths {
+    /// The live lanes, bit `l` for lane `l`.
+    #[inline(always)]
+    fn alive_mask(&self) -> u32 {
+        (0..LANES).fold(0, |mask, l| mask | (self.alive[l] as u32) << l)
+    }
+
     /// Starts a camera path along `ray` in lane `l`.
     fn begin(&mut self, l: usize, ray: &Ray) {
         self.origin.set(l, ray.origin);
@@ -220,10 +226,12 @@ impl PathTracer {
         let mut vertices = Vertices::default();
         let mut lights = LightSamples::default();
         loop {
-            for l in 0..LANES {
-                if paths.alive[l] {
-                    continue;
-                }
+            // The lanes whose path ended, as a mask: a branch per lane on whether it is alive
+            // went either way at random.
+            let mut ended = !paths.alive_mask() & ((1 << LANES) - 1);
+            while ended != 0 {
+                let l = ended.trailing_zeros() as usize;
+                ended &= ended - 1;
                 if let Some(k) = traced[l].take() {
                     out[k] = PathSample { radiance: paths.radiance.get(l), ..results[l] };
                 }
@@ -235,7 +243,7 @@ impl PathTracer {
                     (rngs[l], camera_rays[l], results[l], traced[l]) = (rng, ray, PathSample::default(), Some(k));
                 }
             }
-            if !paths.alive.iter().any(|&a| a) {
+            if paths.alive_mask() == 0 {
                 break;
             }
             let hits = closest_hits(scene, &paths, &first, &mut fresh, &mut results);
