@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""Times `lucid bench trace` against Mitsuba 3 on the same Cornell box, alternating runs.
+
+The performance target of the path tracer (issue 9) was set against Mitsuba 3's scalar and
+LLVM builds measured on a machine like ours; machines here drift in speed between days and
+minutes, so a figure means something only beside the reference measured in the same run.
+`mi.cornell_box()` is the layout of shared/reference/cornell-box.md, rendered here with the
+benchmark's settings (256x256, 64 spp, path tracing with max depth 8; reference mean 0.1470).
+
+    pip install mitsuba numpy
+    # the LLVM variant needs libLLVM (Debian: apt-get install libllvm19) and, if Dr.Jit does
+    # not find it: export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
+    python3 scripts/compare-mitsuba.py [--lucid PATH] [--rounds 6]
+
+Each round runs `lucid bench trace` once and renders once with each Mitsuba variant, each in
+a process of its own (the LLVM variant's kernels are compiled by an untimed render first). It
+prints each renderer's median wall time, the ratios, and lucid's time scaled to the
+machine the target was set on (where the scalar build took 3.2 s and the LLVM build 1.2 s).
+"""
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+ISSUE_SECONDS = {"scalar_rgb": 3.2, "llvm_ad_rgb": 1.2}
+
+
+def lucid_wall(binary):
+    out = subprocess.run([binary, "bench", "trace"], check=True, capture_output=True, text=True).stdout
+    for line in out.splitlines():
+        if line.startswith("wall time"):
+            return float(line.split()[-1])
+    sys.exit(f"error: `{binary} bench trace` printed no wall time line:\n{out}")
+
+
+def mitsuba_scene(mi):
+    d = mi.cornell_box()
+    d["sensor"]["film"]["width"] = 256
+    d["sensor"]["film"]["height"] = 256
+    d["sensor"]["sampler"] = {"type": "independent", "sample_count": 64}
+    d["integrator"] = {"type": "path", "max_depth": 8}
+    return mi.load_dict(d)
+
+
+def mitsuba_wall(mi, dr, np, scene, seed):
+    start = time.perf_counter()
+    image = mi.render(scene, spp=64, seed=seed)
+    dr.eval(image)
+    dr.sync_thread()
+    return time.perf_counter() - start, float(np.asarray(image)[..., :3].mean())
+
+
+def worker(variant, seed):
+    """One timed render in a process of its own (after an untimed one for the LLVM variant),
+    so that neither variant's threads share the cores with the other's."""
+    import drjit as dr
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant(variant)
+    scene = mitsuba_scene(mi)
+    if variant.startswith("llvm"):
+        mitsuba_wall(mi, dr, np, scene, 0)
+    wall, mean = mitsuba_wall(mi, dr, np, scene, seed)
+    print(f"{wall} {mean}")
+
+
+def mitsuba_process(variant, seed):
+    done = subprocess.run(
+        [sys.executable, __file__, "--worker", variant, "--seed", str(seed)], capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        return None, done.stderr.strip().splitlines()[-1:] or ["exit code " + str(done.returncode)]
+    wall, mean = done.stdout.split()[-2:]
+    return float(wall), float(mean)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.expanduser("~/.cache/lucid-target"))
+    parser.add_argument("--lucid", default=os.path.join(target, "release", "lucid"))
+    parser.add_argument("--rounds", type=int, default=6)
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--seed", type=int, default=1, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        return worker(args.worker, args.seed)
+    if not os.path.isfile(args.lucid):
+        sys.exit(f"error: {args.lucid}: no lucid binary (cargo build --release -p lucid-cli)")
+    try:
+        import mitsuba  # noqa: F401
+        import numpy  # noqa: F401
+    except ImportError as e:
+        sys.exit(f"error: {e}: pip install mitsuba numpy")
+
+    variants = list(ISSUE_SECONDS)
+    times = {"lucid": []} | {v: [] for v in variants}
+    means = {}
+    for r in range(args.rounds):
+        times["lucid"].append(lucid_wall(args.lucid))
+        for variant in list(variants):
+            wall, mean = mitsuba_process(variant, r + 1)
+            if wall is None:
+                print(f"warning: Mitsuba variant {variant} failed, left out: {mean[0]}", file=sys.stderr)
+                variants.remove(variant)
+                del times[variant]
+                continue
+            times[variant].append(wall)
+            means[variant] = mean
+        print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.3f} s" for k, v in times.items()), flush=True)
+
+    lucid = statistics.median(times["lucid"])
+    print(f"\n{'renderer':<20}{'median (s)':>11}{'min (s)':>9}{'lucid / it':>12}{'lucid scaled (s)':>18}")
+    print(f"{'lucid':<20}{lucid:>11.3f}{min(times['lucid']):>9.3f}")
+    for variant in variants:
+        median = statistics.median(times[variant])
+        scaled = lucid / median * ISSUE_SECONDS[variant]
+        print(f"{'mitsuba ' + variant:<20}{median:>11.3f}{min(times[variant]):>9.3f}{lucid / median:>12.3f}{scaled:>18.3f}")
+    print("\nimage means: " + ", ".join(f"mitsuba {v} {m:.5f}" for v, m in means.items()) + " (reference 0.1470)")
+    print("lucid scaled: lucid's median times the issue machine's time for that variant over this run's")
+
+
+if __name__ == "__main__":
+    main()
