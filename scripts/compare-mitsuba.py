@@ -28,29 +28,17 @@ import time
 ISSUE_SECONDS = {"scalar_rgb": 3.2, "llvm_ad_rgb": 1.2}
 
 
-def lucid_wall(binary):
+def lucid_run(binary):
+    """`lucid bench trace`'s wall time and image mean."""
     out = subprocess.run([binary, "bench", "trace"], check=True, capture_output=True, text=True).stdout
+    values = {}
     for line in out.splitlines():
-        if line.startswith("wall time"):
-            return float(line.split()[-1])
-    sys.exit(f"error: `{binary} bench trace` printed no wall time line:\n{out}")
-
-
-def mitsuba_scene(mi):
-    d = mi.cornell_box()
-    d["sensor"]["film"]["width"] = 256
-    d["sensor"]["film"]["height"] = 256
-    d["sensor"]["sampler"] = {"type": "independent", "sample_count": 64}
-    d["integrator"] = {"type": "path", "max_depth": 8}
-    return mi.load_dict(d)
-
-
-def mitsuba_wall(mi, dr, np, scene, seed):
-    start = time.perf_counter()
-    image = mi.render(scene, spp=64, seed=seed)
-    dr.eval(image)
-    dr.sync_thread()
-    return time.perf_counter() - start, float(np.asarray(image)[..., :3].mean())
+        for name in ("wall time", "image mean"):
+            if line.startswith(name):
+                values[name] = float(line.split()[-1])
+    if len(values) < 2:
+        sys.exit(f"error: `{binary} bench trace` printed no wall time or image mean line:\n{out}")
+    return values["wall time"], values["image mean"]
 
 
 def worker(variant, seed):
@@ -61,19 +49,34 @@ def worker(variant, seed):
     import numpy as np
 
     mi.set_variant(variant)
-    scene = mitsuba_scene(mi)
+    d = mi.cornell_box()
+    d["sensor"]["film"]["width"] = 256
+    d["sensor"]["film"]["height"] = 256
+    d["sensor"]["sampler"] = {"type": "independent", "sample_count": 64}
+    d["integrator"] = {"type": "path", "max_depth": 8}
+    scene = mi.load_dict(d)
+
+    def render(seed):
+        start = time.perf_counter()
+        image = mi.render(scene, spp=64, seed=seed)
+        dr.eval(image)
+        dr.sync_thread()
+        return time.perf_counter() - start, float(np.asarray(image)[..., :3].mean())
+
     if variant.startswith("llvm"):
-        mitsuba_wall(mi, dr, np, scene, 0)
-    wall, mean = mitsuba_wall(mi, dr, np, scene, seed)
+        render(0)
+    wall, mean = render(seed)
     print(f"{wall} {mean}")
 
 
-def mitsuba_process(variant, seed):
+def mitsuba_run(variant, seed):
+    """A worker's wall time and image mean, or the reason it failed."""
     done = subprocess.run(
         [sys.executable, __file__, "--worker", variant, "--seed", str(seed)], capture_output=True, text=True
     )
     if done.returncode != 0:
-        return None, done.stderr.strip().splitlines()[-1:] or ["exit code " + str(done.returncode)]
+        lines = done.stderr.strip().splitlines()
+        raise RuntimeError(lines[-1] if lines else f"exit code {done.returncode}")
     wall, mean = done.stdout.split()[-2:]
     return float(wall), float(mean)
 
@@ -100,16 +103,18 @@ def main():
     times = {"lucid": []} | {v: [] for v in variants}
     means = {}
     for r in range(args.rounds):
-        times["lucid"].append(lucid_wall(args.lucid))
+        wall, means["lucid"] = lucid_run(args.lucid)
+        times["lucid"].append(wall)
         for variant in list(variants):
-            wall, mean = mitsuba_process(variant, r + 1)
-            if wall is None:
-                print(f"warning: Mitsuba variant {variant} failed, left out: {mean[0]}", file=sys.stderr)
+            try:
+                wall, means[variant] = mitsuba_run(variant, r + 1)
+            except RuntimeError as e:
+                print(f"warning: Mitsuba variant {variant} failed, left out: {e}", file=sys.stderr)
                 variants.remove(variant)
                 del times[variant]
+                means.pop(variant, None)
                 continue
             times[variant].append(wall)
-            means[variant] = mean
         print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.3f} s" for k, v in times.items()), flush=True)
 
     lucid = statistics.median(times["lucid"])
@@ -119,7 +124,7 @@ def main():
         median = statistics.median(times[variant])
         scaled = lucid / median * ISSUE_SECONDS[variant]
         print(f"{'mitsuba ' + variant:<20}{median:>11.3f}{min(times[variant]):>9.3f}{lucid / median:>12.3f}{scaled:>18.3f}")
-    print("\nimage means: " + ", ".join(f"mitsuba {v} {m:.5f}" for v, m in means.items()) + " (reference 0.1470)")
+    print("\nimage means: " + ", ".join(f"{v} {m:.5f}" for v, m in means.items()) + " (reference 0.1470)")
     print("lucid scaled: lucid's median times the issue machine's time for that variant over this run's")
 
 
