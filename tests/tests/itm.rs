@@ -52,5 +52,5 @@ fn bad_itm_input_is_refused_clearly() {
     .success();
     lucid_in(d, &["train", "itm", "br", "-o", "itm", "--steps", "2"]).failure(&["smaller than the training patch"]);
     lucid_in(d, &["train", "itm", "br", "-o", "itm", "--set", "train.patch=30"]).failure(&["train.patch"]);
-    lucid_in(d, &["train", "itm", "br", "-o", "itm2", "--resume"]).failure(&["no checkpoint to resume"]);
+    lucid_in(d, &["train", "itm", "br", "-o", "itm2", "--resume"]).failure(&["nothing to resume"]);
 }

@@ -48,3 +48,35 @@ pub fn positive(key: &str, v: f64) -> Result<(), String> {
 pub fn non_negative(key: &str, v: f64) -> Result<(), String> {
     if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{key} must be zero or positive, got {v}")) }
 }
+
+/// A configuration file's text (empty for the defaults) with `KEY=VALUE` overrides applied
+/// (`--set train.steps=500`: dotted keys, TOML values, a bare word taken as a string), as
+/// TOML, and where it came from for messages.
+pub fn config_text(file: Option<&std::path::Path>, overrides: &[String]) -> Result<(String, String), String> {
+    let (text, origin) = match file {
+        Some(path) => {
+            (std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?, path.display().to_string())
+        }
+        None => (String::new(), "default configuration".to_string()),
+    };
+    let mut value: toml::Table = toml::from_str(&text).map_err(|e| format!("{origin}: {}", toml_error(&text, &e)))?;
+    for item in overrides {
+        let (key, raw) = item.split_once('=').ok_or_else(|| format!("--set {item}: expected KEY=VALUE"))?;
+        let parsed: toml::Value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+        let mut table = &mut value;
+        let parts: Vec<&str> = key.trim().split('.').collect();
+        for part in &parts[..parts.len() - 1] {
+            table = table
+                .entry(part.to_string())
+                .or_insert_with(|| toml::Value::Table(Default::default()))
+                .as_table_mut()
+                .ok_or_else(|| format!("--set {item}: {part} is not a table"))?;
+        }
+        table.insert(parts[parts.len() - 1].to_string(), parsed);
+    }
+    let origin = if overrides.is_empty() { origin } else { format!("{origin} with --set {}", overrides.join(" ")) };
+    Ok((toml::to_string(&value).map_err(|e| format!("{origin}: {e}"))?, origin))
+}

@@ -334,7 +334,8 @@ pub struct TrainItmArgs {
     /// their test splits evaluate).
     #[arg(required = true)]
     pub datasets: Vec<PathBuf>,
-    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, eval_test/metrics.json.
+    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, run.json,
+    /// eval_test/metrics.json.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Configuration file (configs/itm/default.toml); defaults are used for missing keys.
@@ -343,29 +344,17 @@ pub struct TrainItmArgs {
     /// Override any configuration key, e.g. `--set train.batch=4` (repeatable; TOML values).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
-    /// Optimiser steps (train.steps).
-    #[arg(long)]
-    pub steps: Option<usize>,
-    /// Stop after this many seconds of training (train.time_limit).
-    #[arg(long)]
-    pub time_limit: Option<f64>,
-    /// Random seed (train.seed).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Continue from OUTPUT/checkpoint.lucid.
-    #[arg(long)]
-    pub resume: bool,
-    /// Skip the evaluation on the test splits at the end.
-    #[arg(long)]
-    pub no_eval: bool,
+    /// Budget, resume and evaluation.
+    #[command(flatten)]
+    pub run: RunArgs,
 }
 
-/// `lucid train nerf|splat`.
+/// `lucid train nerf|splat|relight`.
 #[derive(Debug, Args)]
 pub struct TrainModelArgs {
     /// Dataset folder (transforms_train.json, or transforms.json, and images).
     pub dataset: PathBuf,
-    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, eval results.
+    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, run.json, eval results.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Configuration file (configs/nerf/*.toml, configs/splat/*.toml); defaults are used
@@ -376,22 +365,44 @@ pub struct TrainModelArgs {
     /// `--set densify.grad_threshold=0.0003` (splat) (repeatable; TOML values).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
-    /// Optimiser steps (train.steps).
+    /// Budget, resume and evaluation.
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+/// What every `lucid train` shares: the budget, resuming, the output folder's handling.
+///
+/// The budget has one meaning for every model: `--steps N` alone trains N steps;
+/// `--time-limit S` alone trains S seconds, with the schedules (learning-rate decay,
+/// densification, SH degrees) stretched over them; both: whichever ends first; neither: the
+/// configuration's `train.steps` (and `train.time_limit` where set: whichever ends first).
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Optimiser steps (train.steps); alone, the run ends after them.
     #[arg(long)]
     pub steps: Option<usize>,
-    /// Stop after this many seconds of training (train.time_limit).
+    /// Seconds of training; alone, the run ends after them, however many steps that is.
     #[arg(long)]
     pub time_limit: Option<f64>,
     /// Random seed (train.seed).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Stop at this step and save, as if interrupted there: the learning-rate schedule
-    /// still spans all steps, and `--resume` continues (training in stages).
+    /// Stop at this step and save, as if interrupted there: the schedules still span the
+    /// budget, and `--resume` continues (training in stages).
     #[arg(long)]
     pub until: Option<usize>,
-    /// Continue from OUTPUT/checkpoint.lucid (its configuration wins; --steps can extend it).
-    #[arg(long)]
+    /// Continue the run in OUTPUT from its checkpoint (its configuration and budget win;
+    /// --steps or --time-limit set a new budget).
+    #[arg(long, conflicts_with = "overwrite")]
     pub resume: bool,
+    /// Replace the run in OUTPUT: its files (checkpoint, config, log, run.json, splats.ply,
+    /// eval_*/) are removed first. Without it, a folder holding a run is refused.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Seconds of training between checkpoints (also every train.checkpoint_every steps, and
+    /// at the end); 0: not by time.
+    #[arg(long, default_value_t = lucid_burn::run::DEFAULT_CHECKPOINT_SECONDS)]
+    pub checkpoint_seconds: f64,
     /// Skip the evaluation on the test split at the end.
     #[arg(long)]
     pub no_eval: bool,

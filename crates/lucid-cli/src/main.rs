@@ -5,8 +5,10 @@
 
 mod cli;
 mod commands;
+mod loaded_model;
 mod progress;
 mod report;
+mod training;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;

@@ -20,6 +20,7 @@ pub mod color;
 pub mod error;
 pub mod io;
 pub mod metrics;
+pub mod output;
 pub mod tonemap;
 
 pub use buffer::Image;

@@ -119,3 +119,57 @@ pub fn evaluate(net: &ItmNet, images: &[ItmImage], device: &Device) -> ItmReport
         inverse_response: plain.score(peak),
     }
 }
+
+impl ItmReport {
+    /// The report as a table, one line each.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines = vec![
+            format!(
+                "ITM on {} held-out exposures ({:.2} % of pixels clipped)",
+                self.images,
+                100.0 * self.clipped_fraction
+            ),
+            format!("{:<18} {:>18} {:>14} {:>20}", "method", "log-PSNR clipped", "log-PSNR all", "tone-mapped PSNR"),
+        ];
+        for (name, s) in
+            [("network", &self.network), ("analytic", &self.analytic), ("inverse response", &self.inverse_response)]
+        {
+            lines.push(format!(
+                "{name:<18} {:>18.2} {:>14.2} {:>20.2}",
+                s.log_psnr_clipped, s.log_psnr, s.tonemapped_psnr
+            ));
+        }
+        lines
+    }
+}
+
+fn planar_image(v: &[f32], w: usize, h: usize) -> lucid_image::Image {
+    let n = w * h;
+    lucid_image::Image::from_fn(w, h, |x, y| {
+        let i = y * w + x;
+        [v[i], v[n + i], v[2 * n + i], 1.0]
+    })
+}
+
+/// Evaluates `net` on `images` and writes into `out`: per exposure the network's prediction,
+/// the analytic baseline's and the truth (`NNN_network.exr`, `NNN_analytic.exr`,
+/// `NNN_truth.exr`), and `metrics.json`.
+pub fn evaluate_into(
+    net: &ItmNet,
+    images: &[ItmImage],
+    device: &Device,
+    out: &std::path::Path,
+) -> Result<ItmReport, lucid_image::ImageError> {
+    use lucid_image::write_image;
+    let report = evaluate(net, images, device);
+    std::fs::create_dir_all(out).map_err(|e| lucid_image::ImageError::io(out, e))?;
+    for (k, img) in images.iter().enumerate() {
+        let (w, h) = (img.width, img.height);
+        write_image(out.join(format!("{k:03}_network.exr")), &planar_image(&predict(net, img, device), w, h))?;
+        write_image(out.join(format!("{k:03}_analytic.exr")), &planar_image(&analytic(img), w, h))?;
+        write_image(out.join(format!("{k:03}_truth.exr")), &planar_image(&img.truth, w, h))?;
+    }
+    let json = serde_json::to_string_pretty(&report).expect("serialises");
+    lucid_image::output::write_text(&out.join("metrics.json"), &json)?;
+    Ok(report)
+}

@@ -15,6 +15,7 @@ pub mod config;
 pub mod data;
 pub mod eval;
 pub mod model;
+pub mod run;
 pub mod trainer;
 
 pub use config::ItmConfig;

@@ -22,6 +22,9 @@ pub struct ItmTrainer {
     pub optimizer: ModuleOptimizer,
     /// Steps taken.
     pub step: usize,
+    /// Fraction of the run's budget used before the next step, in [0, 1] (set by the training
+    /// loop, [`lucid_burn::run`]).
+    pub progress: f64,
     /// The device.
     pub device: Device,
 }
@@ -45,18 +48,17 @@ impl ItmTrainer {
         device.seed(config.train.seed);
         let net = ItmNet::new(config.model.width, &device);
         let optimizer = AdamConfig::new().init();
-        Self { config, net, optimizer, step: 0, device }
+        Self { config, net, optimizer, step: 0, progress: 0.0, device }
     }
 
     /// From saved parts.
     pub fn from_parts(config: ItmConfig, net: ItmNet, optimizer: ModuleOptimizer, step: usize, device: Device) -> Self {
-        Self { config, net, optimizer, step, device }
+        Self { config, net, optimizer, step, progress: 0.0, device }
     }
 
-    /// Learning rate at the current step: exponential decay by 10× over the run.
+    /// Learning rate at the current schedule position: exponential decay by 10× over the run.
     pub fn learning_rate(&self) -> f64 {
-        let t = &self.config.train;
-        t.learning_rate * 0.1f64.powf(self.step as f64 / t.steps.max(1) as f64)
+        self.config.train.learning_rate * 0.1f64.powf(self.progress.clamp(0.0, 1.0))
     }
 
     /// The batch of a step: drawn from a generator seeded by the seed and the step, so a
@@ -68,7 +70,7 @@ impl ItmTrainer {
     }
 
     /// One optimiser step; returns the loss.
-    pub fn train_step(&mut self, images: &[ItmImage]) -> f32 {
+    pub fn step(&mut self, images: &[ItmImage]) -> f32 {
         let b = self.batch(images);
         let (n, p) = (b.n, b.patch);
         let dev = &self.device;

@@ -23,7 +23,7 @@ use crate::data::ViewInfo;
 use crate::error_map::ErrorMap;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
-use crate::trainer::{Trainer, optimizer};
+use crate::trainer::{NerfTrainer, optimizer};
 
 /// The kind this module reads and writes.
 pub const NERF_KIND: &str = "nerf";
@@ -51,7 +51,7 @@ pub struct CheckpointHeader {
 }
 
 /// Saves a trainer's full state to `path`.
-pub fn save(path: &Path, trainer: &Trainer, elapsed: f64) -> Result<(), CheckpointError> {
+pub fn save(path: &Path, trainer: &NerfTrainer, elapsed: f64) -> Result<(), CheckpointError> {
     let (lo, hi) = trainer.grid.bounds();
     let header = CheckpointHeader {
         kind: NERF_KIND.into(),
@@ -79,7 +79,7 @@ pub struct Loaded {
     /// Its header.
     pub header: CheckpointHeader,
     /// The trainer state, on `device`.
-    pub trainer: Trainer,
+    pub trainer: NerfTrainer,
 }
 
 /// Loads a NeRF checkpoint onto `device` (use the autodiff device to continue training).
@@ -108,7 +108,7 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     let [lo, hi] = header.bounds;
     let grid = OccupancyGrid::from_parts(res, Vec3::from(lo), Vec3::from(hi), thickness, bits)
         .ok_or_else(|| invalid(path, "occupancy grid does not match its resolution"))?;
-    let mut trainer = Trainer::resume(
+    let mut trainer = NerfTrainer::resume(
         header.config.clone(),
         model,
         Some(optimizer),
@@ -128,7 +128,7 @@ mod tests {
     use super::*;
     use crate::field::FieldConfig;
 
-    fn tiny_trainer() -> Trainer {
+    fn tiny_trainer() -> NerfTrainer {
         let mut config = NerfConfig {
             field: FieldConfig { hidden: 8, geometry_features: 4, ..FieldConfig::default() },
             ..Default::default()
@@ -136,7 +136,7 @@ mod tests {
         config.field.grid.log2_table_size = 8;
         config.field.grid.levels = 2;
         config.occupancy.resolution = 8;
-        Trainer::new(config, (Vec3::splat(-1.0), Vec3::splat(1.0)), 0.01, crate::backend::training_device())
+        NerfTrainer::new(config, (Vec3::splat(-1.0), Vec3::splat(1.0)), 0.01, crate::backend::training_device())
     }
 
     /// Rewrites the header section of a checkpoint's bytes.

@@ -21,6 +21,7 @@ pub mod model;
 pub mod occupancy;
 pub mod profile;
 pub mod render;
+pub mod run;
 pub mod trainer;
 
 pub use encoding::hash_grid::{HashGridConfig, HashGridLayout, LevelLayout};

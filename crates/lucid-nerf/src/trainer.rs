@@ -85,7 +85,7 @@ impl StepTimings {
 
 /// A model in training with everything needed to continue: optimiser state, occupancy grid,
 /// step counter and the batch-size adaptation.
-pub struct Trainer {
+pub struct NerfTrainer {
     /// The configuration.
     pub config: NerfConfig,
     /// The model (on the autodiff device).
@@ -102,9 +102,9 @@ pub struct Trainer {
     pub pixel_angle: f32,
     /// How the training cameras saw the scene (defaults for rendering paths).
     pub view: ViewInfo,
-    /// Fraction of a wall-clock budget used so far (set by time-limited loops): the
-    /// learning-rate schedule follows whichever budget, steps or time, is further along.
-    pub budget_progress: f64,
+    /// Fraction of the run's budget used before the next step, in [0, 1] (set by the training
+    /// loop, [`lucid_burn::run`]): the position of the learning-rate decay.
+    pub progress: f64,
     /// Per-block loss estimates of the training images, when `train.error_sampling` is on
     /// (made at the first step, kept in checkpoints).
     pub error_map: Option<ErrorMap>,
@@ -120,7 +120,7 @@ pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
-impl Trainer {
+impl NerfTrainer {
     /// A fresh model over the scene box `(min, max)`.
     pub fn new(config: NerfConfig, bounds: (Vec3, Vec3), pixel_angle: f32, device: Device) -> Self {
         let model = NerfModel::init(&config.field, &device, config.train.seed);
@@ -158,7 +158,7 @@ impl Trainer {
             rays_per_batch,
             pixel_angle,
             view: ViewInfo::default(),
-            budget_progress: 0.0,
+            progress: 0.0,
             error_map: None,
             device,
         }
@@ -170,12 +170,11 @@ impl Trainer {
         RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle)
     }
 
-    /// The learning rate at the current step (exponential decay to the final fraction over the
-    /// steps, or over the time budget when that runs out first).
+    /// The learning rate at the current schedule position (exponential decay to the final
+    /// fraction over the run's budget).
     pub fn learning_rate(&self) -> f64 {
         let t = &self.config.train;
-        let progress = (self.step as f64 / t.steps as f64).max(self.budget_progress).min(1.0);
-        t.learning_rate * t.final_learning_rate.powf(progress)
+        t.learning_rate * t.final_learning_rate.powf(self.progress.clamp(0.0, 1.0))
     }
 
     /// One optimisation step on random pixels of `data`.

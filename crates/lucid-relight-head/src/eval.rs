@@ -202,3 +202,68 @@ impl RelightModel<'_> {
         })
     }
 }
+
+impl RelightReport {
+    /// The report as a table, one line each.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines =
+            vec![format!("{:<34} {:>7} {:>10} {:>8}", "held-out views under", "frames", "PSNR (dB)", "SSIM")];
+        for (label, m) in [
+            ("single training lights", &self.lights),
+            ("single held-out lights", &self.held_out_lights),
+            ("environment maps", &self.environments),
+        ] {
+            if let (Some(psnr), Some(ssim)) = (m.psnr, m.ssim) {
+                lines.push(format!("{label:<34} {:>7} {psnr:>10.2} {ssim:>8.4}", m.frames));
+            }
+        }
+        let mut envs: Vec<&PathBuf> = self.frames.iter().filter_map(|f| f.environment.as_ref()).collect();
+        envs.sort();
+        envs.dedup();
+        for env in envs {
+            let s: Vec<f64> =
+                self.frames.iter().filter(|f| f.environment.as_ref() == Some(env)).map(|f| f.psnr).collect();
+            lines.push(format!(
+                "  {:<32} {:>7} {:>10.2}",
+                env.display(),
+                s.len(),
+                s.iter().sum::<f64>() / s.len() as f64
+            ));
+        }
+        if self.environments.frames > 0 {
+            lines.push(format!(
+                "environments integrated over {} directions, {:.2} s per render",
+                self.environment_directions, self.seconds_per_environment
+            ));
+        }
+        lines
+    }
+}
+
+/// Evaluates a trained head on `views` (their lights and environment maps), writing each
+/// render as `VVV_<truth stem>.exr` and `metrics.json` into `out`.
+pub fn evaluate_into(
+    trainer: &crate::trainer::RelightTrainer,
+    lights: &crate::checkpoint::LightSet,
+    views: &[CapturedView],
+    out: &std::path::Path,
+    device: &Device,
+) -> Result<RelightReport, RelightError> {
+    std::fs::create_dir_all(out).map_err(|e| lucid_image::ImageError::io(out, e))?;
+    let model = RelightModel {
+        config: &trainer.config,
+        geometry: &trainer.geometry,
+        head: &trainer.head,
+        training_directions: &lights.directions,
+        irradiance: lights.irradiance,
+        device,
+    };
+    let report = model.evaluate(views, |score, image| {
+        let stem = score.truth.file_stem().and_then(|s| s.to_str()).unwrap_or("frame");
+        let name = format!("{:03}_{}.exr", score.view, stem.trim_end_matches(".exr"));
+        Ok(lucid_image::write_image(out.join(name), image)?)
+    })?;
+    let text = serde_json::to_string_pretty(&report).expect("serialises");
+    lucid_image::output::write_text(&out.join("metrics.json"), &text)?;
+    Ok(report)
+}

@@ -19,6 +19,7 @@ pub mod data;
 pub mod eval;
 pub mod head;
 pub mod render;
+pub mod run;
 pub mod trainer;
 
 pub use lucid_relight::RelightError;

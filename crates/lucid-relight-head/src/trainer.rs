@@ -55,7 +55,7 @@ pub struct RelightTrainer {
     /// Head steps taken.
     pub step: usize,
     /// Fraction of a wall-clock budget used so far (set by time-limited loops).
-    pub budget_progress: f64,
+    pub progress: f64,
     device: Device,
 }
 
@@ -105,12 +105,12 @@ impl RelightTrainer {
         step: usize,
         device: Device,
     ) -> Self {
-        Self { config, geometry, head, optimizer, step, budget_progress: 0.0, device }
+        Self { config, geometry, head, optimizer, step, progress: 0.0, device }
     }
 
-    /// Progress through the run, from the step count or the time budget, whichever is ahead.
+    /// Progress through the run's budget, in [0, 1].
     pub fn progress(&self) -> f64 {
-        (self.step as f64 / self.config.train.steps as f64).max(self.budget_progress).min(1.0)
+        self.progress.clamp(0.0, 1.0)
     }
 
     /// The decoder's learning rate now: exponential decay by 10× over the run.
@@ -121,7 +121,7 @@ impl RelightTrainer {
     /// One optimiser step: a view drawn at random and `lights_per_step` of its lights, from a
     /// generator seeded by the seed and the step (a resumed run draws what an uninterrupted
     /// one would have).
-    pub fn train_step(&mut self, data: &OlatSet) -> HeadStepStats {
+    pub fn step(&mut self, data: &OlatSet) -> HeadStepStats {
         let t = self.config.train;
         let mut rng = Rng::new(t.seed, mix(0x4e11 ^ self.step as u64));
         let view = &data.views[rng.below(data.views.len())];

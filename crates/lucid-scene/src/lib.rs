@@ -13,6 +13,7 @@
 pub mod camera;
 pub mod dataset;
 pub mod evaluation;
+pub mod held_out;
 pub mod prefetch;
 pub mod ray;
 pub mod sampling;

@@ -19,6 +19,7 @@ pub mod ply;
 pub mod project;
 pub mod raster;
 pub mod render;
+pub mod run;
 pub mod sh;
 pub mod trainer;
 pub mod view;

@@ -60,8 +60,9 @@ pub struct SplatTrainer {
     pub view: ViewInfo,
     /// Centre of the scene (the target of orbit paths).
     pub centre: Vec3,
-    /// Fraction of a wall-clock budget used so far (set by time-limited loops).
-    pub budget_progress: f64,
+    /// Fraction of the run's budget used before the next step, in [0, 1] (set by the training
+    /// loop, [`lucid_burn::run`]).
+    pub progress: f64,
     /// Position in the reference schedule (the step count, or further on under a time
     /// budget).
     pub schedule: usize,
@@ -110,7 +111,7 @@ impl SplatTrainer {
             extent,
             view: ViewInfo::from_cameras(&data.cameras, centre),
             centre,
-            budget_progress: 0.0,
+            progress: 0.0,
             schedule: 0,
             since_densify: 0,
             device,
@@ -139,16 +140,16 @@ impl SplatTrainer {
             extent,
             view,
             centre,
-            budget_progress: 0.0,
+            progress: 0.0,
             schedule: step,
             since_densify: 0,
             device,
         }
     }
 
-    /// Progress through the run, from the step count or the time budget, whichever is ahead.
+    /// Progress through the run's budget, in [0, 1].
     pub fn progress(&self) -> f64 {
-        (self.step as f64 / self.config.train.steps as f64).max(self.budget_progress).min(1.0)
+        self.progress.clamp(0.0, 1.0)
     }
 
     /// The SH degree in use at this step.
@@ -240,8 +241,10 @@ impl SplatTrainer {
         self.step += 1;
         self.since_densify += 1;
         let before = self.schedule;
-        let budget = (self.budget_progress * cfg.steps as f64) as usize;
-        self.schedule = self.step.max(budget).max(before + 1);
+        // The reference schedule's position after this step: under a step budget the step
+        // count, under a time budget stretched over the seconds.
+        let position = (self.progress() * cfg.steps as f64).round() as usize + 1;
+        self.schedule = position.max(before);
         let d = self.config.densify;
         let mut densified = None;
         let in_window = self.schedule < d.until;

@@ -12,7 +12,7 @@ use lucid_datasets_gen::{PathTracedScene, Shard, generate_dataset};
 use lucid_nerf::data::ImageSet;
 use lucid_nerf::eval::evaluate;
 use lucid_nerf::profile::time_kernels;
-use lucid_nerf::trainer::{StepTimings, Trainer};
+use lucid_nerf::trainer::{NerfTrainer, StepTimings};
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
@@ -54,14 +54,15 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
-    let mut config = super::train::nerf_config(None, &bench.overrides, Default::default())?;
+    let (text, origin) = crate::training::config_text(None, &bench.overrides)?;
+    let mut config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
     let total = *budgets.last().expect("budgets");
     // Time ends the run (the learning rate decays over the time budget), not steps.
     config.train.steps = config.train.steps.max(if bench.quick { 400 } else { 6000 });
     config.train.time_limit = total;
     let device = lucid_nerf::backend::training_device();
-    let mut trainer = Trainer::for_dataset(config, &dataset, &train, device);
+    let mut trainer = NerfTrainer::for_dataset(config, &dataset, &train, device);
 
     let curve_views = bench.curve_views.min(test.len()).max(1);
     let mut curve = Vec::new();
@@ -71,7 +72,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     for &budget in &budgets {
         while trained < budget && trainer.step < trainer.config.train.steps {
             let t = Instant::now();
-            trainer.budget_progress = trained / total;
+            trainer.progress = trained / total;
             let stats = trainer.step(&train);
             trained += t.elapsed().as_secs_f64();
             samples += stats.samples;
@@ -103,7 +104,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
 
 #[allow(clippy::too_many_arguments)]
 fn report(
-    trainer: &Trainer,
+    trainer: &NerfTrainer,
     curve: &[serde_json::Value],
     last: &lucid_nerf::eval::EvalSummary,
     phases: &StepTimings,

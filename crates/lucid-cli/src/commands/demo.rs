@@ -162,7 +162,7 @@ fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Re
     config.train.seed = args.seed;
     let train = ImageSet::load(frames)?;
     let mut trainer =
-        lucid_nerf::trainer::Trainer::for_dataset(config, dataset, &train, lucid_nerf::backend::training_device());
+        lucid_nerf::trainer::NerfTrainer::for_dataset(config, dataset, &train, lucid_nerf::backend::training_device());
     tracing::info!("training a NeRF for {} steps", args.nerf_steps);
     let bar = crate::progress::bar(args.nerf_steps as u64, "nerf");
     let (mut seconds, mut curve) = (0.0, Vec::new());

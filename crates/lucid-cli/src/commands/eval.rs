@@ -1,18 +1,18 @@
-//! `lucid eval CHECKPOINT DATASET`: renders every view of a split, writes the renders, depth
-//! and error maps, and reports PSNR/SSIM per view and averaged (text and metrics.json).
+//! `lucid eval CHECKPOINT DATASET`: scores a trained model on a dataset split and writes what
+//! it rendered beside the scores (`metrics.json`). NeRF and splat checkpoints: renders, depth
+//! and error maps, PSNR/SSIM per view and averaged. ITM checkpoints: the network against the
+//! analytic baseline and the plain inverse response on the split's bracket frames.
+//! Relighting checkpoints: each view under each of its OLAT lights and environment maps.
 
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use lucid_image::color::srgb_decode;
-use lucid_image::{Image, WriteOptions, write_image, write_image_with};
-use lucid_scene::dataset::images::ImageSet;
-use lucid_scene::evaluation::{ViewModel, evaluate};
+use lucid_relight_head::data::OlatSet;
+use lucid_scene::held_out::evaluate_split;
 use lucid_scene::{Dataset, Split};
-use serde_json::json;
 
-use super::model::LoadedModel;
 use crate::cli::EvalArgs;
+use crate::loaded_model::LoadedModel;
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     let split = match args.split.as_str() {
@@ -21,9 +21,13 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         "test" => Split::Test,
         other => bail!("--split must be train, val or test, got {other}"),
     };
+    let out = args
+        .output
+        .clone()
+        .unwrap_or_else(|| args.checkpoint.parent().unwrap_or(Path::new(".")).join(format!("eval_{}", split.name())));
     match lucid_burn::checkpoint::read_kind(&args.checkpoint)?.as_str() {
-        lucid_itm::checkpoint::ITM_KIND => return super::eval_itm::run(&args, split),
-        lucid_relight_head::checkpoint::RELIGHT_KIND => return super::eval_relight::run(&args, split),
+        lucid_itm::checkpoint::ITM_KIND => return itm(&args, split, &out),
+        lucid_relight_head::checkpoint::RELIGHT_KIND => return relight(&args, split, &out),
         _ => {}
     }
     let loaded = LoadedModel::load(&args.checkpoint)?;
@@ -32,112 +36,54 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     if dataset.frames(split).is_empty() {
         bail!("{}: the dataset has no {} split", args.dataset.display(), split.name());
     }
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| args.checkpoint.parent().unwrap_or(Path::new(".")).join(format!("eval_{}", split.name())));
-    loaded.with_renderer(|renderer| {
-        evaluate_model(renderer, loaded.step(), &dataset, split, args.limit, &out, args.json, args.pinhole)
-    })
-}
-
-/// Evaluates a model (trained for `step` steps) on a split, writing `out/` and printing the
-/// results.
-#[allow(clippy::too_many_arguments)]
-pub fn evaluate_model(
-    renderer: &dyn ViewModel,
-    step: usize,
-    dataset: &Dataset,
-    split: Split,
-    limit: Option<usize>,
-    out: &Path,
-    json_out: bool,
-    pinhole: bool,
-) -> anyhow::Result<()> {
-    let frames = dataset.frames(split);
-    let frames = &frames[..limit.unwrap_or(frames.len()).min(frames.len())];
-    let mut set = ImageSet::load(frames).with_context(|| format!("loading the {} images", split.name()))?;
-    if pinhole {
-        set.lenses.iter_mut().for_each(|l| *l = None);
-    }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let bar = crate::progress::bar(set.len() as u64, "eval");
-    let mut failure = None;
-    let (scores, summary) = evaluate(renderer, &set, None, |i, view, truth, score| {
-        bar.inc(1);
-        if failure.is_some() {
-            return;
-        }
-        let stem = frames[i].image_path.file_stem().and_then(|s| s.to_str()).unwrap_or("view").to_string();
-        if let Err(e) = write_view(out, &stem, view, truth) {
-            failure = Some(e);
-        }
-        tracing::debug!("{stem}: {:.2} dB, SSIM {:.4}, {:.3} s", score.psnr, score.ssim, score.seconds);
-    });
-    bar.finish_and_clear();
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    let report = json!({
-        "split": split.name(),
-        "step": step,
-        "summary": summary,
-        "views": scores,
-        "metric_space": "sRGB-encoded, composited on the background",
-        "thin_lens_views": set.lenses.iter().filter(|l| l.is_some()).count(),
-    });
-    super::write_text(&out.join("metrics.json"), &serde_json::to_string_pretty(&report)?)?;
-    if json_out {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+    let mut progress = lucid_burn::run::eval_progress();
+    let evaluation = loaded.with_renderer(|renderer| {
+        evaluate_split(renderer, loaded.step(), &dataset, split, args.limit, args.pinhole, &out, &mut progress)
+    })?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&evaluation.report)?);
     } else {
-        for (f, s) in frames.iter().zip(&scores) {
-            println!("{:<40} {:>7.2} dB  SSIM {:.4}  {:.3} s", f.file_path, s.psnr, s.ssim, s.seconds);
-        }
-        println!(
-            "{} {} views: PSNR {:.2} dB, SSIM {:.4}, {:.3} s per view (background {:?}) -> {}",
-            split.name(),
-            summary.views,
-            summary.psnr,
-            summary.ssim,
-            summary.seconds_per_view,
-            summary.background,
-            out.display()
-        );
+        evaluation.lines.iter().for_each(|line| println!("{line}"));
     }
     Ok(())
 }
 
-/// `stem.png` (render), `stem_depth.exr`, `stem_error.png` (|error| × 4, grey).
-fn write_view(
-    out: &Path,
-    stem: &str,
-    view: &lucid_scene::evaluation::RenderedView,
-    truth: &Image,
-) -> anyhow::Result<()> {
-    // Renders are in sRGB-encoded space; the PNG writer encodes linear values, so decode.
-    let linear = view.colour.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]);
-    write_image(out.join(format!("{stem}.png")), &linear)?;
-    let (w, h) = view.colour.dimensions();
-    let depth = Image::from_pixels(w, h, view.depth.iter().map(|&d| [d, d, d, 1.0]).collect());
-    write_image_with(
-        out.join(format!("{stem}_depth.exr")),
-        &depth,
-        WriteOptions { single_channel: true, ..Default::default() },
-    )?;
-    let error = Image::from_pixels(
-        w,
-        h,
-        view.colour
-            .pixels()
-            .iter()
-            .zip(truth.pixels())
-            .map(|(a, b)| {
-                let e =
-                    srgb_decode(((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0 * 4.0).min(1.0);
-                [e, e, e, 1.0]
-            })
-            .collect(),
-    );
-    write_image(out.join(format!("{stem}_error.png")), &error)?;
+fn itm(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
+    let device = lucid_burn::backend::default_device();
+    let loaded = lucid_itm::checkpoint::load(&args.checkpoint, &device)?;
+    let threshold = loaded.trainer.config.model.mask_threshold;
+    let mut images = lucid_itm::data::load(std::slice::from_ref(&args.dataset), split, threshold)
+        .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    if let Some(limit) = args.limit {
+        images.truncate(limit);
+    }
+    let report = lucid_itm::eval::evaluate_into(&loaded.trainer.net, &images, &device, out)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        report.lines().iter().for_each(|line| println!("{line}"));
+    }
+    Ok(())
+}
+
+fn relight(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
+    let device = lucid_burn::backend::default_device();
+    let loaded = lucid_relight_head::checkpoint::load(&args.checkpoint, &device)?;
+    let data =
+        OlatSet::load(&args.dataset, split).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    if data.views.is_empty() {
+        bail!(
+            "{}: the {} split has no OLAT frames or environment truths to evaluate on",
+            args.dataset.display(),
+            split.name()
+        );
+    }
+    let views = &data.views[..args.limit.unwrap_or(data.views.len()).min(data.views.len())];
+    let report = lucid_relight_head::eval::evaluate_into(&loaded.trainer, &loaded.lights, views, out, &device)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        report.lines().iter().for_each(|line| println!("{line}"));
+    }
     Ok(())
 }

@@ -212,6 +212,14 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
     // folder cannot mix frames made with different ones.
     let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
+    std::fs::create_dir_all(&args.output).with_context(|| format!("{}: cannot create", args.output.display()))?;
+    // One writer per folder; the shards of a sharded run each lock only their own share.
+    let _lock = match args.shard {
+        Some((index, count)) if !args.merge => {
+            lucid_image::output::OutputLock::file(&args.output.join(format!("shard-{index}-of-{count}")))?
+        }
+        _ => lucid_image::output::OutputLock::folder(&args.output)?,
+    };
     let path = args.output.join("dataset.toml");
     match std::fs::read_to_string(&path) {
         Ok(existing) if existing != toml_text => bail!(

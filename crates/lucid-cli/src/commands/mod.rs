@@ -10,27 +10,24 @@ pub mod demo;
 mod demo_report;
 mod envmap;
 mod eval;
-mod eval_itm;
-mod eval_relight;
 pub mod generate;
 mod hdr;
 mod info;
 mod metrics;
-mod model;
 mod refocus;
 mod relight;
 mod render;
 mod render_model;
 mod rig_file;
 mod tonemap;
-mod train;
 mod train_itm;
+mod train_nerf;
 mod train_relight;
 mod train_splat;
 
 use anyhow::{Context, bail};
 
-use crate::cli::Command;
+use crate::cli::{Command, TrainModel};
 
 /// Runs one subcommand.
 /// `matches` are the parsed arguments, for commands that need to know which options were
@@ -45,7 +42,12 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(args),
         Command::Gen(args) => generate::run(args, matches.subcommand_matches("gen").expect("gen was parsed")),
         Command::Refocus(args) => refocus::run(args),
-        Command::Train(args) => train::run(args),
+        Command::Train(args) => match args.model {
+            TrainModel::Nerf(args) => train_nerf::run_nerf(args),
+            TrainModel::Splat(args) => train_splat::run_splat(args),
+            TrainModel::Itm(args) => train_itm::run_itm(args),
+            TrainModel::Relight(args) => train_relight::run_relight(args),
+        },
         Command::Eval(args) => eval::run(args),
         Command::Hdr(args) => hdr::run(args),
         Command::Tonemap(args) => tonemap::run(args),

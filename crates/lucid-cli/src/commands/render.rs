@@ -34,6 +34,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         RenderCamera::ThinLens(c) => c.pinhole.intrinsics,
     };
     tracing::info!("rendering {} at {}x{}, {} spp", args.scene.display(), k.width, k.height, loaded.settings.spp);
+    // One writer per output (a missing folder is reported when the images are written).
+    let parent = args.output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let _lock = parent.is_dir().then(|| lucid_image::output::OutputLock::file(&args.output)).transpose()?;
     let bar = crate::progress::bar(k.height as u64, "rendering");
     let started = std::time::Instant::now();
     let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64));

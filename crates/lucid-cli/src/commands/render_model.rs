@@ -9,8 +9,8 @@ use glam::Vec3;
 use lucid_image::{WriteOptions, write_image, write_image_with};
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
-use super::model::LoadedModel;
 use crate::cli::{CameraPathArg, RenderArgs};
+use crate::loaded_model::LoadedModel;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {

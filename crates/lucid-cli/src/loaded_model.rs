@@ -1,4 +1,4 @@
-//! Trained models of any kind behind one interface, so `lucid eval` and `lucid render` read
+//! Trained view models (NeRF, splats) behind one interface, so `lucid eval` and `lucid render` read
 //! every checkpoint the trainers write.
 
 use std::path::Path;
@@ -12,7 +12,7 @@ use lucid_splat::view::SplatRenderer;
 /// A checkpoint, loaded for rendering.
 pub enum LoadedModel {
     /// A hash-grid NeRF.
-    Nerf(Box<lucid_nerf::trainer::Trainer>),
+    Nerf(Box<lucid_nerf::trainer::NerfTrainer>),
     /// A splat cloud.
     Splat(Box<lucid_splat::trainer::SplatTrainer>),
 }

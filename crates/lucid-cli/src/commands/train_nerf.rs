@@ -1,0 +1,69 @@
+//! `lucid train nerf DATASET -o OUT`: a hash-grid NeRF through the training loop (budget,
+//! progress, CSV log, checkpoints by steps and time, resume) and a closing evaluation on the
+//! test split.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use lucid_burn::run::{NoObserver, RunFolder, Start, run};
+use lucid_nerf::checkpoint::{self, NERF_KIND};
+use lucid_nerf::config::NerfConfig;
+use lucid_nerf::data::ImageSet;
+use lucid_nerf::run::NerfRun;
+use lucid_nerf::trainer::NerfTrainer;
+use lucid_scene::Split;
+
+use crate::cli::TrainModelArgs;
+use crate::training;
+
+pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
+    let load_start = Instant::now();
+    let start = training::start(&args.run);
+    // A bad configuration fails before anything is read or written.
+    let config = match start {
+        Start::Resume => None,
+        _ => Some(nerf_config(&args)?),
+    };
+    let dataset = training::open_dataset(&args.dataset)?;
+    let folder = RunFolder::open(&args.output, NERF_KIND, start)?;
+    let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
+    let device = lucid_nerf::backend::training_device();
+    let (mut trainer, elapsed) = match config {
+        None => {
+            let loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
+            tracing::info!("resuming {} at step {}", folder.checkpoint().display(), loaded.trainer.step);
+            (loaded.trainer, loaded.header.elapsed)
+        }
+        Some(config) => (NerfTrainer::for_dataset(config, &dataset, &data, device), 0.0),
+    };
+    training::apply_shortcuts(&args.run, &mut trainer.config.train.steps, None);
+    let t = trainer.config.train;
+    let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
+    folder.write_manifest(NERF_KIND, budget)?;
+    training::write_config(&folder, &trainer.config)?;
+    let (lo, hi) = trainer.grid.bounds();
+    tracing::info!(
+        "{} training views loaded in {:.1} s; box {:?}..{:?}; {}, {} samples a step",
+        data.len(),
+        load_start.elapsed().as_secs_f64(),
+        lo.to_array(),
+        hi.to_array(),
+        budget.describe(),
+        t.batch_samples
+    );
+    let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "nerf")?;
+    let mut model = NerfRun { trainer, data: &data, held_out: Some(&dataset) };
+    let summary = run(&mut model, &options, &mut NoObserver)?;
+    training::print_summary(&summary, "a NeRF", &folder.checkpoint());
+    Ok(())
+}
+
+/// The configuration file (or the defaults) with `--set`, `--steps` and `--seed` applied.
+pub fn nerf_config(args: &TrainModelArgs) -> anyhow::Result<NerfConfig> {
+    let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides)?;
+    let mut config = NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
+    let t = &mut config.train;
+    training::apply_shortcuts(&args.run, &mut t.steps, Some(&mut t.seed));
+    config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+    Ok(config)
+}

@@ -1,0 +1,105 @@
+//! What every `lucid train` command maps the same way: `--resume`/`--overwrite` to how the
+//! run starts in its folder, `--steps`/`--time-limit` to a budget, the rest to the training
+//! loop's options ([`lucid_burn::run`]), and the loop's summary to the terminal.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use lucid_burn::run::{Budget, RunFolder, RunOptions, RunSummary, Start};
+use lucid_scene::{Dataset, Split};
+
+use crate::cli::RunArgs;
+
+/// How the run starts in its folder.
+pub fn start(args: &RunArgs) -> Start {
+    match (args.resume, args.overwrite) {
+        (true, _) => Start::Resume,
+        (false, true) => Start::Overwrite,
+        (false, false) => Start::New,
+    }
+}
+
+/// The configuration's text (the file, or the defaults) with `--set` applied, and its origin.
+pub fn config_text(file: Option<&Path>, overrides: &[String]) -> anyhow::Result<(String, String)> {
+    lucid_burn::config::config_text(file, overrides).map_err(anyhow::Error::msg)
+}
+
+/// Writes `--steps` and `--seed` into a new run's configuration (`train.steps`,
+/// `train.seed`); `--steps` also extends a resumed one.
+pub fn apply_shortcuts(args: &RunArgs, steps: &mut usize, seed: Option<&mut u64>) {
+    if let Some(s) = args.steps {
+        *steps = s;
+    }
+    if let (Some(s), Some(seed)) = (args.seed, seed) {
+        *seed = s;
+    }
+}
+
+/// The run's budget: the flags where given, else a resumed run's own, else the
+/// configuration's `train.steps` and `train.time_limit`.
+pub fn budget(args: &RunArgs, folder: &RunFolder, config_steps: usize, config_seconds: f64) -> anyhow::Result<Budget> {
+    let previous = folder.previous_budget().filter(|_| args.steps.is_none() && args.time_limit.is_none());
+    let budget = match previous {
+        Some(budget) => budget,
+        None => Budget::from_limits(args.steps, args.time_limit, config_steps, config_seconds)
+            .map_err(|e| anyhow::anyhow!("--steps/--time-limit: {e}"))?,
+    };
+    Ok(budget)
+}
+
+/// The loop's options for a run in `folder` (`checkpoint.lucid`, `train_log.csv`,
+/// `eval_test/`).
+pub fn options(
+    args: &RunArgs,
+    folder: &RunFolder,
+    budget: Budget,
+    elapsed: f64,
+    (checkpoint_every, log_every): (usize, usize),
+    label: &str,
+) -> anyhow::Result<RunOptions> {
+    if !(args.checkpoint_seconds.is_finite() && args.checkpoint_seconds >= 0.0) {
+        anyhow::bail!("--checkpoint-seconds must be zero or a positive number, got {}", args.checkpoint_seconds);
+    }
+    Ok(RunOptions {
+        until: args.until,
+        checkpoint: Some(folder.checkpoint()),
+        checkpoint_every,
+        checkpoint_seconds: args.checkpoint_seconds,
+        log: Some(folder.path("train_log.csv")),
+        log_every,
+        elapsed,
+        resumed: args.resume,
+        label: label.to_string(),
+        evaluate: (!args.no_eval).then(|| folder.path("eval_test")),
+        ..RunOptions::new(budget)
+    })
+}
+
+/// Writes the configuration a run trains with into its folder.
+pub fn write_config(folder: &RunFolder, config: &impl serde::Serialize) -> anyhow::Result<()> {
+    let path = folder.path("config.toml");
+    lucid_image::output::write_text(&path, &toml::to_string(config)?).with_context(|| path.display().to_string())
+}
+
+/// Prints what a run did.
+pub fn print_summary(summary: &RunSummary, what: &str, checkpoint: &Path) {
+    println!("trained {what} {} steps in {:.1} s -> {}", summary.steps, summary.elapsed, checkpoint.display());
+    if !summary.phases.is_empty() {
+        println!("time per phase: {}", summary.phase_shares());
+    }
+    if summary.interrupted {
+        println!("stopped at step {}; continue with --resume", summary.steps);
+    }
+    for line in &summary.report {
+        println!("{line}");
+    }
+}
+
+/// The dataset of a training command, with at least one training frame.
+pub fn open_dataset(root: &Path) -> anyhow::Result<Dataset> {
+    let dataset = Dataset::open(root).with_context(|| format!("reading dataset {}", root.display()))?;
+    if dataset.frames(Split::Train).is_empty() {
+        bail!("{}: no training frames (transforms_train.json or transforms.json)", root.display());
+    }
+    Ok(dataset)
+}
