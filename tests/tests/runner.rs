@@ -59,8 +59,13 @@ fn a_time_limited_run_killed_after_its_first_checkpoint_resumes_and_finishes() {
     let d = dir.path();
     tiny_dataset(d, "ds");
     let args = ["train", "splat", "ds", "-o", "t", "--time-limit", "8", "--checkpoint-seconds", "1", "--no-eval"];
-    let mut child =
-        Command::new(lucid_bin()).args(args).current_dir(d).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    let mut child = Command::new(lucid_bin())
+        .args(args)
+        .current_dir(d)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
     let ckpt = d.join("t/checkpoint.lucid");
     let start = Instant::now();
     while !ckpt.is_file() && start.elapsed() < Duration::from_secs(60) {
@@ -119,8 +124,13 @@ fn a_second_writer_is_refused_naming_the_folder_and_the_holder() {
     let d = dir.path();
     tiny_dataset(d, "ds");
     let args = ["train", "splat", "ds", "-o", "busy", "--time-limit", "30", "--no-eval"];
-    let mut child =
-        Command::new(lucid_bin()).args(args).current_dir(d).stdout(Stdio::null()).stderr(Stdio::null()).spawn().unwrap();
+    let mut child = Command::new(lucid_bin())
+        .args(args)
+        .current_dir(d)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
     let manifest = d.join("busy/run.json");
     let start = Instant::now();
     while !manifest.is_file() && start.elapsed() < Duration::from_secs(60) {
@@ -128,11 +138,11 @@ fn a_second_writer_is_refused_naming_the_folder_and_the_holder() {
     }
     let pid = child.id().to_string();
     let train = lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--overwrite", "--steps", "2"]);
-    let gen = lucid_in(d, &["gen", "object", "-o", "busy", "--views", "1,0,0", "--res", "8"]);
+    let generate = lucid_in(d, &["gen", "object", "-o", "busy", "--views", "1,0,0", "--res", "8"]);
     child.kill().unwrap();
     child.wait().unwrap();
     train.failure(&["busy", "in use by another lucid process", &pid]);
-    gen.failure(&["busy", "in use by another lucid process", &pid]);
+    generate.failure(&["busy", "in use by another lucid process", &pid]);
     // Once the holder is gone, the folder is free again.
     lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--overwrite", "--steps", "1", "--no-eval"]).success();
 }
