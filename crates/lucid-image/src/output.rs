@@ -58,27 +58,61 @@ impl OutputLock {
 
     fn acquire(path: PathBuf, what: &Path) -> Result<Self, LockError> {
         let io = |source| LockError::Io { path: path.clone(), source };
-        // Not truncated on open: the holder's PID must survive a failed attempt to read it.
-        let mut file =
-            OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(io)?;
-        match file.try_lock() {
-            Ok(()) => {}
-            Err(std::fs::TryLockError::WouldBlock) => {
-                let mut text = String::new();
-                let holder = file.read_to_string(&mut text).ok().and_then(|_| text.trim().parse().ok());
-                return Err(LockError::Held { what: what.to_path_buf(), holder });
+        loop {
+            // Not truncated on open: the holder's PID must survive a failed attempt to read it.
+            let mut file =
+                OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(io)?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => {
+                    let mut text = String::new();
+                    let holder = file.read_to_string(&mut text).ok().and_then(|_| text.trim().parse().ok());
+                    return Err(LockError::Held { what: what.to_path_buf(), holder });
+                }
+                Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
             }
-            Err(std::fs::TryLockError::Error(e)) => return Err(io(e)),
+            // The last holder removes the file as it lets go; a file opened just before that
+            // is no longer the one at `path`, and its lock guards nothing: open again.
+            if !same_file(&file, &path) {
+                continue;
+            }
+            file.set_len(0).map_err(io)?;
+            file.rewind().map_err(io)?;
+            write!(file, "{}", std::process::id()).and_then(|()| file.flush()).map_err(io)?;
+            return Ok(Self { _file: file, path });
         }
-        file.set_len(0).map_err(io)?;
-        file.rewind().map_err(io)?;
-        write!(file, "{}", std::process::id()).and_then(|()| file.flush()).map_err(io)?;
-        Ok(Self { _file: file, path })
     }
 
     /// The lock file.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+}
+
+impl Drop for OutputLock {
+    /// Removes the lock file while still holding it, so that outputs keep no trace of the
+    /// lock (a dataset stays byte-identical whoever made it).
+    fn drop(&mut self) {
+        if cfg!(unix) {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Whether `file` is the file now at `path` (always true where this cannot be told).
+fn same_file(file: &File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (file.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (file, path);
+        true
     }
 }
 
@@ -103,6 +137,9 @@ mod tests {
         drop(first);
         let again = OutputLock::folder(dir.path()).unwrap();
         assert_eq!(std::fs::read_to_string(again.path()).unwrap(), std::process::id().to_string());
+        let path = again.path().to_path_buf();
+        drop(again);
+        assert!(!path.exists(), "no trace of the lock left");
 
         let out = dir.path().join("a.exr");
         let _a = OutputLock::file(&out).unwrap();
