@@ -18,6 +18,23 @@ fn log_steps(path: &Path) -> (usize, Vec<usize>) {
     (headers, text.lines().filter_map(|l| l.split(',').next()?.parse().ok()).collect())
 }
 
+/// Starts `lucid args` in `d` and waits (up to a minute) until `file` exists; returns the
+/// process and when it started.
+fn spawn_until(d: &Path, args: &[&str], file: &Path) -> (std::process::Child, Instant) {
+    let child = Command::new(lucid_bin())
+        .args(args)
+        .current_dir(d)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !file.is_file() && start.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    (child, start)
+}
+
 fn budget(d: &Path, out: &str) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(d.join(out).join("run.json")).unwrap()).unwrap()
 }
@@ -59,18 +76,8 @@ fn a_time_limited_run_killed_after_its_first_checkpoint_resumes_and_finishes() {
     let d = dir.path();
     tiny_dataset(d, "ds");
     let args = ["train", "splat", "ds", "-o", "t", "--time-limit", "8", "--checkpoint-seconds", "1", "--no-eval"];
-    let mut child = Command::new(lucid_bin())
-        .args(args)
-        .current_dir(d)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
     let ckpt = d.join("t/checkpoint.lucid");
-    let start = Instant::now();
-    while !ckpt.is_file() && start.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let (mut child, start) = spawn_until(d, &args, &ckpt);
     assert!(ckpt.is_file(), "a checkpoint by time within a minute");
     // A moment after it that varies from run to run, well before the budget ends.
     let jitter = Instant::now().duration_since(start).subsec_millis() as u64 % 1500;
@@ -124,18 +131,7 @@ fn a_second_writer_is_refused_naming_the_folder_and_the_holder() {
     let d = dir.path();
     tiny_dataset(d, "ds");
     let args = ["train", "splat", "ds", "-o", "busy", "--time-limit", "30", "--no-eval"];
-    let mut child = Command::new(lucid_bin())
-        .args(args)
-        .current_dir(d)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let manifest = d.join("busy/run.json");
-    let start = Instant::now();
-    while !manifest.is_file() && start.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let (mut child, _) = spawn_until(d, &args, &d.join("busy/run.json"));
     let pid = child.id().to_string();
     let train = lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--overwrite", "--steps", "2"]);
     let generate = lucid_in(d, &["gen", "object", "-o", "busy", "--views", "1,0,0", "--res", "8"]);
