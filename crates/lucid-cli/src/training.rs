@@ -19,19 +19,19 @@ pub fn start(args: &RunArgs) -> Start {
     }
 }
 
-/// The configuration's text (the file, or the defaults) with `--set` applied, and its origin.
-pub fn config_text(file: Option<&Path>, overrides: &[String]) -> anyhow::Result<(String, String)> {
-    lucid_burn::config::config_text(file, overrides).map_err(anyhow::Error::msg)
+/// A new run's configuration text (the file, or the defaults) with `--set` applied, and
+/// `--steps` and `--seed` as the overrides `train.steps` and `train.seed`; and its origin.
+pub fn config_text(file: Option<&Path>, overrides: &[String], args: &RunArgs) -> anyhow::Result<(String, String)> {
+    let mut overrides = overrides.to_vec();
+    overrides.extend(args.steps.map(|s| format!("train.steps={s}")));
+    overrides.extend(args.seed.map(|s| format!("train.seed={s}")));
+    lucid_burn::config::config_text(file, &overrides).map_err(anyhow::Error::msg)
 }
 
-/// Writes `--steps` and `--seed` into a new run's configuration (`train.steps`,
-/// `train.seed`); `--steps` also extends a resumed one.
-pub fn apply_shortcuts(args: &RunArgs, steps: &mut usize, seed: Option<&mut u64>) {
+/// `--steps` on a resumed run: its new `train.steps`.
+pub fn extend_steps(args: &RunArgs, steps: &mut usize) {
     if let Some(s) = args.steps {
         *steps = s;
-    }
-    if let (Some(s), Some(seed)) = (args.seed, seed) {
-        *seed = s;
     }
 }
 
@@ -77,8 +77,7 @@ pub fn options(
 
 /// Writes the configuration a run trains with into its folder.
 pub fn write_config(folder: &RunFolder, config: &impl serde::Serialize) -> anyhow::Result<()> {
-    let path = folder.path("config.toml");
-    lucid_image::output::write_text(&path, &toml::to_string(config)?).with_context(|| path.display().to_string())
+    crate::commands::write_text(&folder.path("config.toml"), &toml::to_string(config)?)
 }
 
 /// Prints what a run did.

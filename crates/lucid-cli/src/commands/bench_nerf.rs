@@ -54,7 +54,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
-    let (text, origin) = crate::training::config_text(None, &bench.overrides)?;
+    let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
     let mut config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
     let total = *budgets.last().expect("budgets");

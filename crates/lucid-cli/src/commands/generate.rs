@@ -1,7 +1,6 @@
 //! `lucid gen SCENE --rig orbit -o DIR`: path-traced datasets in the NeRF-synthetic layout,
 //! with a `dataset.toml` that records how to regenerate them.
 
-use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, bail};
@@ -228,12 +227,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         ),
         Ok(_) => {}
         Err(_) => {
-            std::fs::create_dir_all(&args.output)
-                .with_context(|| format!("{}: cannot create", args.output.display()))?;
-            lucid_image::write_atomically(&path, |out| {
-                out.write_all(toml_text.as_bytes())
-                    .map_err(|e| lucid_image::ImageError::Io { path: path.clone(), source: e })
-            })?;
+            lucid_image::output::write_text(&path, &toml_text)?;
         }
     }
     if args.merge {

@@ -99,11 +99,7 @@ pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
 
 /// Writes a text file atomically (temporary name, then rename); errors name the file.
 pub fn write_text(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
-    use std::io::Write;
-    lucid_image::write_atomically(path, |w| {
-        w.write_all(text.as_bytes()).map_err(|source| lucid_image::ImageError::Io { path: path.to_path_buf(), source })
-    })
-    .with_context(|| path.display().to_string())
+    lucid_image::output::write_text(path, text).with_context(|| path.display().to_string())
 }
 
 #[cfg(test)]

@@ -20,12 +20,8 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
     let config = match start {
         Start::Resume => None,
         _ => {
-            let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides)?;
-            let mut config = ItmConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-            let t = &mut config.train;
-            training::apply_shortcuts(&args.run, &mut t.steps, Some(&mut t.seed));
-            config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
-            Some(config)
+            let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides, &args.run)?;
+            Some(ItmConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
         }
     };
     let threshold = config.as_ref().map(|c| c.model.mask_threshold);
@@ -37,9 +33,10 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
     }
     let folder = RunFolder::open(&args.output, ITM_KIND, start)?;
     let device = lucid_burn::backend::training_device();
-    let (mut trainer, elapsed) = match config {
+    let (trainer, elapsed) = match config {
         None => {
-            let loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
+            let mut loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
+            training::extend_steps(&args.run, &mut loaded.trainer.config.train.steps);
             (loaded.trainer, loaded.header.elapsed)
         }
         Some(config) => (ItmTrainer::new(config, device.clone()), 0.0),
@@ -51,7 +48,6 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
         }
     };
     check_patch(&train, trainer.config.train.patch)?;
-    training::apply_shortcuts(&args.run, &mut trainer.config.train.steps, None);
     let t = trainer.config.train.clone();
     let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
     folder.write_manifest(ITM_KIND, budget)?;

@@ -22,17 +22,6 @@ use lucid_splat::view::SplatRenderer;
 use crate::cli::TrainModelArgs;
 use crate::training;
 
-/// The configuration file (or the defaults) with `--set` and the shortcuts (which set the
-/// head's `train` keys) applied.
-fn relight_config(args: &TrainModelArgs) -> anyhow::Result<RelightConfig> {
-    let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides)?;
-    let mut config = RelightConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let t = &mut config.train;
-    training::apply_shortcuts(&args.run, &mut t.steps, Some(&mut t.seed));
-    config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
-    Ok(config)
-}
-
 /// Stage 1: trains (or resumes, or finds finished) the geometry.
 fn geometry_stage(
     config: &RelightConfig,
@@ -99,7 +88,11 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
     let start = training::start(&args.run);
     let config = match start {
         Start::Resume => None,
-        _ => Some(relight_config(&args)?),
+        // The budget flags set the head's `train` keys.
+        _ => {
+            let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides, &args.run)?;
+            Some(RelightConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
+        }
     };
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
@@ -111,10 +104,15 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
     let folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
     let device = lucid_burn::backend::training_device();
     let head_checkpoint = folder.checkpoint();
-    let (mut trainer, lights, elapsed, resumed) = if args.run.resume && head_checkpoint.is_file() {
-        let loaded = checkpoint::load(&head_checkpoint, &device).context("resuming")?;
+    let (trainer, lights, elapsed, budget) = if args.run.resume && head_checkpoint.is_file() {
+        let mut loaded = checkpoint::load(&head_checkpoint, &device).context("resuming")?;
         tracing::info!("resuming {} at head step {}", head_checkpoint.display(), loaded.trainer.step);
-        (loaded.trainer, loaded.lights, loaded.header.elapsed, true)
+        let t = &mut loaded.trainer.config.train;
+        training::extend_steps(&args.run, &mut t.steps);
+        let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
+        folder.write_manifest(RELIGHT_KIND, budget)?;
+        training::write_config(&folder, &loaded.trainer.config)?;
+        (loaded.trainer, loaded.lights, loaded.header.elapsed, budget)
     } else {
         // A run killed in its geometry stage keeps its configuration in config.toml.
         let config = match config {
@@ -122,7 +120,10 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
             None => {
                 let path = folder.path("config.toml");
                 let text = std::fs::read_to_string(&path).with_context(|| path.display().to_string())?;
-                RelightConfig::from_toml(&text, &path.display().to_string()).map_err(anyhow::Error::msg)?
+                let mut config =
+                    RelightConfig::from_toml(&text, &path.display().to_string()).map_err(anyhow::Error::msg)?;
+                training::extend_steps(&args.run, &mut config.train.steps);
+                config
             }
         };
         // Written first, so a run killed in its geometry stage can be resumed.
@@ -134,13 +135,9 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         report_geometry(&test, &geometry)?;
         let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
         let cloud = geometry.model.to_cloud();
-        (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, 0.0, false)
+        (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, 0.0, budget)
     };
-    training::apply_shortcuts(&args.run, &mut trainer.config.train.steps, None);
     let t = trainer.config.train;
-    let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
-    folder.write_manifest(RELIGHT_KIND, budget)?;
-    training::write_config(&folder, &trainer.config)?;
     tracing::info!(
         "head: {} OLAT frames of {} views, {} lights, {} Gaussians; {}",
         data.lit_images(),
@@ -149,9 +146,8 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         trainer.geometry.len(),
         budget.describe()
     );
-    let mut options =
-        training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "relight")?;
-    options.resumed = resumed;
+    // A head resumed from step 0 (a run killed in its geometry stage) keeps no log rows.
+    let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "relight")?;
     let held_out = Some((&test, head_checkpoint.clone()));
     let mut model = HeadRun { trainer, data: &data, lights: &lights, held_out };
     let summary = run(&mut model, &options, &mut NoObserver)?;

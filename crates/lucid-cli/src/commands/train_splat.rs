@@ -21,16 +21,20 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     let start = training::start(&args.run);
     let config = match start {
         Start::Resume => None,
-        _ => Some(splat_config(&args)?),
+        _ => {
+            let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides, &args.run)?;
+            Some(SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
+        }
     };
     let dataset = training::open_dataset(&args.dataset)?;
     let folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
     let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     let device = lucid_burn::backend::training_device();
-    let (mut trainer, elapsed) = match config {
+    let (trainer, elapsed) = match config {
         None => {
-            let loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
+            let mut loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
             tracing::info!("resuming {} at step {}", folder.checkpoint().display(), loaded.trainer.step);
+            training::extend_steps(&args.run, &mut loaded.trainer.config.train.steps);
             (loaded.trainer, loaded.header.elapsed)
         }
         Some(config) => {
@@ -41,7 +45,6 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
             (SplatTrainer::new(config, &cloud, &data, (lo + hi) * 0.5, device), 0.0)
         }
     };
-    training::apply_shortcuts(&args.run, &mut trainer.config.train.steps, None);
     let t = trainer.config.train;
     let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
     folder.write_manifest(SPLAT_KIND, budget)?;
@@ -60,14 +63,4 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     let summary = run(&mut model, &options, &mut NoObserver)?;
     training::print_summary(&summary, "3D Gaussian splats", &folder.checkpoint());
     Ok(())
-}
-
-/// The configuration file (or the defaults) with `--set`, `--steps` and `--seed` applied.
-pub fn splat_config(args: &TrainModelArgs) -> anyhow::Result<SplatConfig> {
-    let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides)?;
-    let mut config = SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let t = &mut config.train;
-    training::apply_shortcuts(&args.run, &mut t.steps, Some(&mut t.seed));
-    config.validate().map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
-    Ok(config)
 }
