@@ -8,6 +8,7 @@
 
 pub mod analytic;
 pub mod brackets;
+pub mod builtin;
 pub mod lightfield;
 pub mod olat;
 pub mod path_traced;
@@ -18,7 +19,7 @@ pub mod writer;
 pub use analytic::AnalyticScene;
 pub use lightfield::{LightFieldRig, refocus};
 pub use path_traced::PathTracedScene;
-pub use rig::OrbitRig;
+pub use rig::{OrbitRig, Rig};
 pub use writer::{
     DatasetSpec, GeneratedDataset, Shard, ViewRenderer, finish_dataset, generate_dataset, missing_frames,
 };

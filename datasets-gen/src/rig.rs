@@ -86,3 +86,65 @@ mod tests {
         assert_ne!(other, train);
     }
 }
+
+/// How a dataset's views are laid out and lit: one kind of rig at a time, so a dataset
+/// cannot be asked to be both a light field and an OLAT set.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Rig {
+    /// Views on an orbit.
+    Orbit(OrbitRig),
+    /// Orbit views, each also recorded as LDR frames at several exposure times (the
+    /// transforms list one frame per view and exposure, with its `exposure_time`).
+    Brackets(OrbitRig, crate::brackets::BracketSpec),
+    /// A light-field grid instead of an orbit: its sub-aperture views form the training split
+    /// and its thin-lens ground truths the test split (the split counts are unused).
+    LightField(crate::lightfield::LightFieldRig),
+    /// Orbit views, each rendered once per light (`light_direction` per frame); the test
+    /// views also under held-out lights and each environment map (`environment_file_path`,
+    /// maps written to `envmaps/`).
+    Olat(OrbitRig, crate::olat::OlatSpec),
+}
+
+impl Rig {
+    /// The orbit, for every rig but the light field.
+    pub fn orbit(&self) -> Option<&OrbitRig> {
+        match self {
+            Self::Orbit(o) | Self::Brackets(o, _) | Self::Olat(o, _) => Some(o),
+            Self::LightField(_) => None,
+        }
+    }
+
+    /// The exposure brackets, if this is a bracket rig.
+    pub fn brackets(&self) -> Option<&crate::brackets::BracketSpec> {
+        match self {
+            Self::Brackets(_, b) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// The light-field grid, if this is a light-field rig.
+    pub fn light_field(&self) -> Option<&crate::lightfield::LightFieldRig> {
+        match self {
+            Self::LightField(l) => Some(l),
+            _ => None,
+        }
+    }
+
+    /// The OLAT lights, if this is an OLAT rig.
+    pub fn olat(&self) -> Option<&crate::olat::OlatSpec> {
+        match self {
+            Self::Olat(_, o) => Some(o),
+            _ => None,
+        }
+    }
+
+    /// The name `dataset.toml` records (`orbit`, `brackets`, `lightfield`, `olat`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Orbit(_) => "orbit",
+            Self::Brackets(..) => "brackets",
+            Self::LightField(_) => "lightfield",
+            Self::Olat(..) => "olat",
+        }
+    }
+}

@@ -11,10 +11,10 @@ use lucid_image::{Image, WriteOptions, write_image, write_image_with};
 use lucid_scene::dataset::{FrameRecord, write_transforms};
 use lucid_scene::{Intrinsics, PinholeCamera, Split};
 
-use crate::brackets::{BracketSpec, expose};
+use crate::brackets::expose;
 use crate::lightfield::LightFieldRig;
-use crate::olat::{Lighting, OlatSpec};
-use crate::rig::OrbitRig;
+use crate::olat::Lighting;
+use crate::rig::Rig;
 use lucid_image::color::srgb_decode;
 use lucid_trace::light::Light;
 
@@ -72,25 +72,14 @@ pub struct DatasetSpec {
     pub fov_x: f32,
     /// Number of train, val and test views.
     pub counts: [usize; 3],
-    /// Where the cameras stand.
-    pub rig: OrbitRig,
+    /// Where the cameras stand and how the views are lit.
+    pub rig: Rig,
     /// Scene bounds written to the transforms files (`aabb`).
     pub aabb: (Vec3, Vec3),
     /// Exposure in stops applied before the PNG's tone curve.
     pub exposure: f32,
     /// Tone curve for the LDR images.
     pub tone_curve: ToneCurve,
-    /// Exposure brackets: when set, each view also gets LDR frames at several exposure times
-    /// and the transforms list one frame per (view, exposure) with its `exposure_time`.
-    pub brackets: Option<BracketSpec>,
-    /// A light-field grid: when set, it replaces the orbit (`rig` and `counts` are unused):
-    /// the sub-aperture views form the training split and the thin-lens ground truths the
-    /// test split.
-    pub light_field: Option<LightFieldRig>,
-    /// One light at a time: every orbit view of every split is rendered once per OLAT light
-    /// (`light_direction` per frame), and the test views also under each environment map
-    /// (`environment_file_path`, maps written to `envmaps/`).
-    pub olat: Option<OlatSpec>,
 }
 
 /// Why generation failed.
@@ -113,6 +102,15 @@ pub enum GenError {
     /// The spec is unusable.
     #[error("invalid dataset spec: {0}")]
     Spec(String),
+    /// A scene file could not be read.
+    #[error(transparent)]
+    Scene(#[from] lucid_trace::SceneFileError),
+    /// A scene name is neither a file nor a built-in scene.
+    #[error("{name}: no such scene file, and not a built-in scene ({})", crate::builtin::SCENE_NAMES.join(", "))]
+    UnknownScene {
+        /// The name given.
+        name: String,
+    },
 }
 
 /// Which frames this run renders: all of them, or every `count`-th starting at `index`
@@ -174,7 +172,7 @@ impl PlannedFrame {
 
     /// The bracket frames' stems (no extension), one per exposure.
     fn bracket_stems(&self, spec: &DatasetSpec) -> Vec<String> {
-        let n = spec.brackets.as_ref().map_or(0, |b| b.exposure_times.len());
+        let n = spec.rig.brackets().map_or(0, |b| b.exposure_times.len());
         (0..n).map(|k| format!("{}_e{k}", self.stem)).collect()
     }
 
@@ -183,42 +181,25 @@ impl PlannedFrame {
             && self.bracket_stems(spec).iter().all(|s| root.join(format!("{s}.png")).is_file())
     }
 
-    /// Seed of this frame's sensor noise for bracket `k`.
-    fn noise_seed(&self, spec: &DatasetSpec, k: usize) -> u64 {
-        lucid_trace::sampling::mix(spec.rig.seed ^ ((self.split as u64) << 48) ^ ((self.index as u64) << 16) ^ k as u64)
+    /// Seed of this frame's sensor noise for bracket `k`, from the rig's seed.
+    fn noise_seed(&self, seed: u64, k: usize) -> u64 {
+        lucid_trace::sampling::mix(seed ^ ((self.split as u64) << 48) ^ ((self.index as u64) << 16) ^ k as u64)
     }
 }
 
 fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
     let mut frames = Vec::new();
-    if let Some(lf) = &spec.light_field {
-        for (i, (_, pose)) in lf.poses().into_iter().enumerate() {
-            frames.push(PlannedFrame {
-                split: 0,
-                index: i,
-                pose,
-                lens: None,
-                lighting: None,
-                stem: format!("train/r_{i}"),
-            });
+    let orbit = match &spec.rig {
+        Rig::LightField(lf) => {
+            light_field_frames(lf, &mut frames);
+            return frames;
         }
-        for (i, &(focus_distance, aperture_radius)) in lf.ground_truth.iter().enumerate() {
-            let lens = Some(Lens { aperture_radius, focus_distance });
-            frames.push(PlannedFrame {
-                split: 2,
-                index: i,
-                pose: lf.centre_pose(),
-                lens,
-                lighting: None,
-                stem: format!("test/r_{i}"),
-            });
-        }
-        return frames;
-    }
+        Rig::Orbit(o) | Rig::Brackets(o, _) | Rig::Olat(o, _) => o,
+    };
     for (split_index, split) in Split::ALL.into_iter().enumerate() {
-        for (i, pose) in spec.rig.poses(spec.counts[split_index], split_index as u64).into_iter().enumerate() {
+        for (i, pose) in orbit.poses(spec.counts[split_index], split_index as u64).into_iter().enumerate() {
             let stem = format!("{}/r_{i}", split.name());
-            let Some(olat) = &spec.olat else {
+            let Some(olat) = spec.rig.olat() else {
                 frames.push(PlannedFrame { split: split_index, index: i, pose, lens: None, lighting: None, stem });
                 continue;
             };
@@ -261,6 +242,31 @@ fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
     frames
 }
 
+/// The frames of a light-field rig: its grid's views train, its thin-lens truths test.
+fn light_field_frames(lf: &LightFieldRig, frames: &mut Vec<PlannedFrame>) {
+    for (i, (_, pose)) in lf.poses().into_iter().enumerate() {
+        frames.push(PlannedFrame {
+            split: 0,
+            index: i,
+            pose,
+            lens: None,
+            lighting: None,
+            stem: format!("train/r_{i}"),
+        });
+    }
+    for (i, &(focus_distance, aperture_radius)) in lf.ground_truth.iter().enumerate() {
+        let lens = Some(Lens { aperture_radius, focus_distance });
+        frames.push(PlannedFrame {
+            split: 2,
+            index: i,
+            pose: lf.centre_pose(),
+            lens,
+            lighting: None,
+            stem: format!("test/r_{i}"),
+        });
+    }
+}
+
 /// Where environment map `k` of an OLAT dataset is stored, relative to the dataset root.
 fn environment_file(k: usize) -> String {
     format!("envmaps/env_{k}.exr")
@@ -287,7 +293,7 @@ pub fn generate_dataset(
     if shard.count == 0 || shard.index >= shard.count {
         return Err(GenError::Spec(format!("shard {}/{} does not exist", shard.index, shard.count)));
     }
-    if spec.olat.is_some() {
+    if spec.rig.olat().is_some() {
         renderer.can_relight().map_err(GenError::Spec)?;
     }
     let intrinsics = Intrinsics::from_fov_x(spec.width, spec.height, spec.fov_x);
@@ -297,7 +303,7 @@ pub fn generate_dataset(
         std::fs::create_dir_all(&folder).map_err(|source| GenError::Io { path: folder.clone(), source })?;
         remove_stale_temporaries(&folder);
     }
-    if let Some(olat) = &spec.olat {
+    if let Some(olat) = spec.rig.olat() {
         let folder = root.join("envmaps");
         std::fs::create_dir_all(&folder).map_err(|source| GenError::Io { path: folder.clone(), source })?;
         for (k, (_, image)) in olat.environments.iter().enumerate() {
@@ -310,7 +316,7 @@ pub fn generate_dataset(
     for (done, frame) in to_do.iter().enumerate() {
         let camera = PinholeCamera::new(intrinsics, frame.pose);
         let view_number = (frame.split * 1_000_000 + frame.index) as u64;
-        let view = match (&frame.lighting, &spec.olat) {
+        let view = match (&frame.lighting, spec.rig.olat()) {
             (Some(lighting), Some(olat)) => {
                 // Each light gets its own random streams too.
                 let salt = match lighting {
@@ -332,9 +338,9 @@ pub fn generate_dataset(
         write_image(root.join(&normal), &view.normal)?;
         write_image(root.join(&albedo), &view.albedo)?;
         write_image(root.join(&png), &spec.tone_curve.map_image(&view.colour, spec.exposure))?;
-        if let Some(b) = &spec.brackets {
+        if let Rig::Brackets(orbit, b) = &spec.rig {
             for (k, (stem, &time)) in frame.bracket_stems(spec).iter().zip(&b.exposure_times).enumerate() {
-                let ldr = expose(&view.colour, time, b.response, b.noise, frame.noise_seed(spec, k));
+                let ldr = expose(&view.colour, time, b.response, b.noise, frame.noise_seed(orbit.seed, k));
                 // The PNG writer sRGB-encodes linear values: hand it the decoded pixel values
                 // so that the file stores exactly the camera's 8-bit codes.
                 let stored = ldr.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), p[3]]);
@@ -384,7 +390,7 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
                 albedo_file_path: Some(albedo),
                 aperture_radius: f.lens.map(|l| l.aperture_radius),
                 focus_distance: f.lens.map(|l| l.focus_distance),
-                light_direction: match (&f.lighting, &spec.olat) {
+                light_direction: match (&f.lighting, spec.rig.olat()) {
                     (Some(Lighting::Light { index }), Some(olat)) => Some(olat.directions[*index]),
                     (Some(Lighting::HeldOutLight { index }), Some(olat)) => Some(olat.held_out[*index]),
                     _ => None,
@@ -396,7 +402,7 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
                 },
                 ..Default::default()
             };
-            match &spec.brackets {
+            match spec.rig.brackets() {
                 None => records.push(base),
                 Some(b) => {
                     for (stem, &time) in f.bracket_stems(spec).iter().zip(&b.exposure_times) {
@@ -443,14 +449,15 @@ mod tests {
             height,
             fov_x: 0.8,
             counts,
-            rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed },
+            rig: Rig::Orbit(orbit(seed)),
             aabb: (Vec3::splat(-1.0), Vec3::splat(1.0)),
             exposure: 0.0,
             tone_curve: ToneCurve::Clip,
-            brackets: None,
-            light_field: None,
-            olat: None,
         }
+    }
+
+    fn orbit(seed: u64) -> crate::OrbitRig {
+        crate::OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed }
     }
 
     #[test]
@@ -469,7 +476,7 @@ mod tests {
             spacing: 0.15,
             ground_truth: ground_truth.clone(),
         };
-        let spec = DatasetSpec { fov_x: 0.7, light_field: Some(lf), ..orbit_spec(64, 48, [0, 0, 0], 1) };
+        let spec = DatasetSpec { fov_x: 0.7, rig: Rig::LightField(lf), ..orbit_spec(64, 48, [0, 0, 0], 1) };
         let out = generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();
         assert_eq!(out.counts, [81, 0, 2]);
         let ds = lucid_scene::Dataset::open(dir.path()).unwrap();
@@ -519,7 +526,7 @@ mod tests {
             irradiance: 3.0,
             environments: builtin_environments(),
         };
-        let spec = DatasetSpec { olat: Some(olat.clone()), ..orbit_spec(24, 24, [1, 0, 1], 4) };
+        let spec = DatasetSpec { rig: Rig::Olat(orbit(4), olat.clone()), ..orbit_spec(24, 24, [1, 0, 1], 4) };
         let dir = tempfile::tempdir().unwrap();
         let out = generate_dataset(dir.path(), &spec, &renderer, Shard::ALL, &|_, _| {}).unwrap();
         assert_eq!(out.counts, [2, 0, 4], "train: 1 view x 2 lights; test: 2 lights + 2 environments");
@@ -558,7 +565,10 @@ mod tests {
         let response = CameraResponse::SCurve { contrast: 1.4 };
         let times = vec![0.25f32, 1.0, 4.0];
         let spec = DatasetSpec {
-            brackets: Some(BracketSpec { exposure_times: times.clone(), response, noise: SensorNoise::NONE }),
+            rig: Rig::Brackets(
+                orbit(2),
+                BracketSpec { exposure_times: times.clone(), response, noise: SensorNoise::NONE },
+            ),
             ..orbit_spec(32, 24, [2, 0, 1], 2)
         };
         generate_dataset(dir.path(), &spec, &AnalyticScene::default(), Shard::ALL, &|_, _| {}).unwrap();

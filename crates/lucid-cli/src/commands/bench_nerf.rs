@@ -4,11 +4,11 @@
 //! times (30 s, 1, 2, 5 and 10 min of training; evaluation time is not counted), then prints
 //! the curve, the training throughput, the time per phase, and the render time of one view.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use lucid_datasets_gen::{PathTracedScene, Shard, generate_dataset};
+use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_nerf::data::ImageSet;
 use lucid_nerf::eval::evaluate;
 use lucid_nerf::profile::time_kernels;
@@ -28,28 +28,9 @@ pub struct NerfBench {
     pub curve_views: usize,
 }
 
-/// Renders the benchmark dataset if it is not complete yet (generation resumes).
-pub fn ensure_dataset(root: &Path, quick: bool) -> anyhow::Result<()> {
-    let (size, counts, spp) = if quick { (48, [12, 0, 3], 8) } else { (200, [100, 0, 200], 32) };
-    if Dataset::open(root)
-        .is_ok_and(|d| d.frames(Split::Train).len() == counts[0] && d.frames(Split::Test).len() == counts[2])
-    {
-        return Ok(());
-    }
-    let spec = super::demo::object_orbit_spec(size, counts, 0);
-    let mut loaded = super::generate::load_named_scene("object")?;
-    loaded.settings.spp = spp;
-    let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
-    tracing::info!("rendering the benchmark dataset into {}", root.display());
-    let bar = crate::progress::bar((counts[0] + counts[2]) as u64, "rendering");
-    generate_dataset(root, &spec, &renderer, Shard::ALL, &|done, _| bar.set_position(done as u64))
-        .context("generating the benchmark dataset")?;
-    bar.finish_and_clear();
-    Ok(())
-}
-
 pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
-    ensure_dataset(&bench.dataset, bench.quick)?;
+    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
+        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
     let dataset = Dataset::open(&bench.dataset)?;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);

@@ -8,7 +8,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use anyhow::Context;
 use glam::Vec3;
+use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_scene::dataset::images::{ImageSet, scene_box};
 use lucid_scene::evaluation::{ViewScore, evaluate};
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
@@ -31,7 +33,8 @@ pub struct SplatBench {
 }
 
 pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
-    super::bench_nerf::ensure_dataset(&bench.dataset, bench.quick)?;
+    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
+        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
     let dataset = Dataset::open(&bench.dataset)?;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test = ImageSet::load(dataset.frames(Split::Test))?;

@@ -6,9 +6,9 @@
 //! `<out>/metrics.json` and `<out>/report.html` (with its images in `<out>/images/`).
 
 use anyhow::{Context, bail};
-use glam::{Vec3, Vec4Swizzles};
-use lucid_datasets_gen::writer::DatasetSpec;
-use lucid_datasets_gen::{OrbitRig, PathTracedScene, Shard, generate_dataset};
+use glam::Vec4Swizzles;
+use lucid_datasets_gen::builtin::{load_named_scene, object_orbit_spec};
+use lucid_datasets_gen::{PathTracedScene, Shard, generate_dataset};
 use lucid_image::metrics::{MetricSpace, MetricSummary};
 use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
@@ -43,7 +43,7 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let root = args.out.join("dataset");
     let spec = object_orbit_spec(args.size, [train, val, test], args.seed);
-    let mut loaded = super::generate::load_named_scene("object")?;
+    let mut loaded = load_named_scene("object")?;
     loaded.settings.spp = args.spp;
     loaded.settings.seed = args.seed;
     tracing::info!("path-tracing {} views of the object scene into {}", train + val + test, root.display());
@@ -237,22 +237,4 @@ fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::R
     let (summary, views) = score_and_show(&renderer, test, &dir, &args.out, "3DGS")?;
     let novel = novel_views(&renderer, test, &args.out, "3DGS")?;
     Ok(ModelRun { name: "3DGS", steps: trainer.step, seconds, summary, checkpoint, curve, views, novel })
-}
-
-/// The default `object` orbit set: cameras on the upper hemisphere at distance 4 with a 40°
-/// field of view, the NeRF-synthetic `[-1.5, 1.5]³` box, ACES tone curve for the PNGs.
-pub fn object_orbit_spec(size: u32, counts: [usize; 3], seed: u64) -> DatasetSpec {
-    DatasetSpec {
-        width: size,
-        height: size,
-        fov_x: 40f32.to_radians(),
-        counts,
-        rig: OrbitRig { radius: 4.0, target: Vec3::ZERO, upper_hemisphere: true, seed },
-        aabb: (Vec3::splat(-1.5), Vec3::splat(1.5)),
-        exposure: 0.0,
-        tone_curve: ToneCurve::Aces,
-        brackets: None,
-        light_field: None,
-        olat: None,
-    }
 }

@@ -1,45 +1,19 @@
 //! `lucid gen SCENE --rig orbit -o DIR`: path-traced datasets in the NeRF-synthetic layout,
 //! with a `dataset.toml` that records how to regenerate them.
 
-use std::path::Path;
-
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_datasets_gen::writer::DatasetSpec;
 use lucid_datasets_gen::{
-    LightFieldRig, OrbitRig, PathTracedScene, Shard, finish_dataset, generate_dataset, missing_frames,
+    LightFieldRig, OrbitRig, PathTracedScene, Rig, Shard, finish_dataset, generate_dataset, missing_frames,
 };
 use lucid_image::tonemap::ToneCurve;
-use lucid_trace::{LoadedScene, load_scene, parse_scene};
 use serde::Serialize;
 
 use crate::cli::{GenArgs, ResponseArg, RigArg};
 use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
 use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, held_out_directions, sphere_directions};
 use lucid_datasets_gen::writer::ViewRenderer;
-
-/// The scenes of `configs/scenes/`, compiled in so `lucid gen NAME` works anywhere.
-const BUILTIN_SCENES: [(&str, &str); 6] = [
-    ("cornell", include_str!("../../../../configs/scenes/cornell.toml")),
-    ("spheres", include_str!("../../../../configs/scenes/spheres.toml")),
-    ("materials", include_str!("../../../../configs/scenes/materials.toml")),
-    ("media", include_str!("../../../../configs/scenes/media.toml")),
-    ("object", include_str!("../../../../configs/scenes/object.toml")),
-    ("studio", include_str!("../../../../configs/scenes/studio.toml")),
-];
-
-/// A scene by built-in name or file path.
-pub fn load_named_scene(scene: &str) -> anyhow::Result<LoadedScene> {
-    let path = Path::new(scene);
-    if path.is_file() {
-        return Ok(load_scene(path)?);
-    }
-    if let Some((name, text)) = BUILTIN_SCENES.iter().find(|(name, _)| *name == scene) {
-        return Ok(parse_scene(text, Path::new(&format!("configs/scenes/{name}.toml")))?);
-    }
-    let names: Vec<&str> = BUILTIN_SCENES.iter().map(|(n, _)| *n).collect();
-    bail!("{scene}: no such scene file, and not a built-in scene ({})", names.join(", "))
-}
 
 /// What `dataset.toml` records.
 #[derive(Serialize)]
@@ -81,35 +55,39 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     if args.views[0] == 0 {
         bail!("--views needs at least one training view");
     }
-    let mut loaded = load_named_scene(&args.scene)?;
+    let mut loaded = lucid_datasets_gen::builtin::load_named_scene(&args.scene)?;
     super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
-    let rig_name = match rig {
-        RigArg::Orbit => "orbit",
-        RigArg::Brackets => "brackets",
-        RigArg::Lightfield => "lightfield",
-        RigArg::Olat => "olat",
+    let orbit = OrbitRig {
+        radius: args.radius,
+        target: Vec3::ZERO,
+        upper_hemisphere: !args.full_sphere,
+        seed: loaded.settings.seed,
     };
-    let olat = match rig {
-        RigArg::Olat => {
-            if args.lights == 0 || args.lights > 4096 {
-                bail!("--lights must be in 1..=4096");
+    let rig = match rig {
+        RigArg::Orbit => Rig::Orbit(orbit),
+        RigArg::Brackets => {
+            if args.exposures.is_empty() || args.exposures.iter().any(|s| !s.is_finite() || s.abs() > 30.0) {
+                bail!("--exposures must list finite stops within ±30");
             }
-            if !(args.light_irradiance.is_finite() && args.light_irradiance > 0.0) {
-                bail!("--light-irradiance must be positive");
+            let non_negative = |v: f32| v.is_finite() && v >= 0.0;
+            if !(non_negative(args.full_well) && non_negative(args.read_noise)) {
+                bail!("--full-well and --read-noise must be non-negative numbers");
             }
-            if args.held_out_lights > 1024 {
-                bail!("--held-out-lights must be at most 1024");
-            }
-            Some(OlatSpec {
-                directions: sphere_directions(args.lights),
-                held_out: held_out_directions(args.held_out_lights),
-                irradiance: args.light_irradiance,
-                environments: builtin_environments(),
-            })
+            Rig::Brackets(
+                orbit,
+                BracketSpec {
+                    exposure_times: args.exposures.iter().map(|s| s.exp2()).collect(),
+                    response: match args.response {
+                        ResponseArg::Srgb => CameraResponse::Srgb,
+                        ResponseArg::Scurve => CameraResponse::SCurve { contrast: 1.6 },
+                    },
+                    noise: SensorNoise {
+                        full_well_electrons: if args.full_well > 0.0 { args.full_well } else { f32::INFINITY },
+                        read_noise: if args.full_well > 0.0 { args.read_noise } else { 0.0 },
+                    },
+                },
+            )
         }
-        _ => None,
-    };
-    let light_field = match rig {
         RigArg::Lightfield => {
             let [u, v] = args.grid[..] else { bail!("--grid takes two counts, U,V") };
             if u == 0 || v == 0 || u * v > 10_000 {
@@ -125,7 +103,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
             let ground_truth = args.focus.iter().flat_map(|&f| args.apertures.iter().map(move |&a| (f, a))).collect();
             // The grid faces the origin from the front, slightly above, at the orbit radius.
             let centre = Vec3::new(0.0, -1.0, 0.35).normalize() * args.radius;
-            Some(LightFieldRig {
+            Rig::LightField(LightFieldRig {
                 centre,
                 target: Vec3::ZERO,
                 up: Vec3::Z,
@@ -134,54 +112,42 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
                 ground_truth,
             })
         }
-        _ => None,
-    };
-    let brackets = match rig {
-        RigArg::Orbit => None,
-        RigArg::Brackets => {
-            if args.exposures.is_empty() || args.exposures.iter().any(|s| !s.is_finite() || s.abs() > 30.0) {
-                bail!("--exposures must list finite stops within ±30");
+        RigArg::Olat => {
+            if args.lights == 0 || args.lights > 4096 {
+                bail!("--lights must be in 1..=4096");
             }
-            let non_negative = |v: f32| v.is_finite() && v >= 0.0;
-            if !(non_negative(args.full_well) && non_negative(args.read_noise)) {
-                bail!("--full-well and --read-noise must be non-negative numbers");
+            if !(args.light_irradiance.is_finite() && args.light_irradiance > 0.0) {
+                bail!("--light-irradiance must be positive");
             }
-            Some(BracketSpec {
-                exposure_times: args.exposures.iter().map(|s| s.exp2()).collect(),
-                response: match args.response {
-                    ResponseArg::Srgb => CameraResponse::Srgb,
-                    ResponseArg::Scurve => CameraResponse::SCurve { contrast: 1.6 },
+            if args.held_out_lights > 1024 {
+                bail!("--held-out-lights must be at most 1024");
+            }
+            Rig::Olat(
+                orbit,
+                OlatSpec {
+                    directions: sphere_directions(args.lights),
+                    held_out: held_out_directions(args.held_out_lights),
+                    irradiance: args.light_irradiance,
+                    environments: builtin_environments(),
                 },
-                noise: SensorNoise {
-                    full_well_electrons: if args.full_well > 0.0 { args.full_well } else { f32::INFINITY },
-                    read_noise: if args.full_well > 0.0 { args.read_noise } else { 0.0 },
-                },
-            })
+            )
         }
-        RigArg::Lightfield | RigArg::Olat => None,
     };
     let spec = DatasetSpec {
         width: args.res,
         height: args.res,
         fov_x: args.fov.to_radians(),
         counts: args.views,
-        rig: OrbitRig {
-            radius: args.radius,
-            target: Vec3::ZERO,
-            upper_hemisphere: !args.full_sphere,
-            seed: loaded.settings.seed,
-        },
+        rig,
         aabb: (Vec3::splat(-1.5), Vec3::splat(1.5)),
         exposure: 0.0,
         tone_curve: ToneCurve::Clip,
-        brackets: brackets.clone(),
-        light_field: light_field.clone(),
-        olat: olat.clone(),
     };
+    let (brackets, light_field, olat) = (spec.rig.brackets(), spec.rig.light_field(), spec.rig.olat());
     let record = DatasetRecord {
         generator: format!("lucid {}", env!("CARGO_PKG_VERSION")),
         scene: &args.scene,
-        rig: rig_name,
+        rig: spec.rig.name(),
         views: args.views,
         resolution: args.res,
         fov_degrees: args.fov,
@@ -205,7 +171,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         held_out_lights: olat.as_ref().map(|o| o.held_out.len()),
     };
     let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
-    if spec.olat.is_some() {
+    if olat.is_some() {
         renderer.can_relight().map_err(|e| anyhow::anyhow!("{}: cannot make an OLAT set: {e}", args.scene))?;
     }
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
