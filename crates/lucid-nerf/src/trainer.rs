@@ -70,6 +70,25 @@ impl StepTimings {
         self.optimizer += o.optimizer;
     }
 
+    /// Timings from named phases (as [`Self::named`] gives them, summed by the training
+    /// loop); unknown names are ignored.
+    pub fn from_named(phases: &[(&str, f64)]) -> Self {
+        let mut t = Self::default();
+        for &(name, seconds) in phases {
+            let slot = match name {
+                "occupancy" => &mut t.occupancy,
+                "march" => &mut t.march,
+                "field" => &mut t.field,
+                "composite+loss" => &mut t.composite,
+                "backward" => &mut t.backward,
+                "optimizer" => &mut t.optimizer,
+                _ => continue,
+            };
+            *slot += seconds;
+        }
+        t
+    }
+
     /// The phases with their names.
     pub fn named(&self) -> [(&'static str, f64); 6] {
         [
@@ -360,5 +379,19 @@ impl NerfTrainer {
     /// The device the model lives on.
     pub fn device(&self) -> &Device {
         &self.device
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timings_come_back_from_their_names() {
+        let t = StepTimings { occupancy: 1.0, march: 2.0, field: 3.0, composite: 4.0, backward: 5.0, optimizer: 6.0 };
+        let mut named = t.named().to_vec();
+        named.push(("elsewhere", 9.0));
+        let back = StepTimings::from_named(&named);
+        assert_eq!(back.named(), t.named());
     }
 }

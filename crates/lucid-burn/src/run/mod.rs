@@ -127,6 +127,13 @@ pub trait Observer<T: ?Sized> {
     fn after_step(&mut self, model: &T, report: &StepReport, elapsed: f64) -> Result<(), ModelError>;
 }
 
+/// Any closure of the model, the step's report and the training seconds observes.
+impl<T: ?Sized, F: FnMut(&T, &StepReport, f64) -> Result<(), ModelError>> Observer<T> for F {
+    fn after_step(&mut self, model: &T, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
+        self(model, report, elapsed)
+    }
+}
+
 /// An observer that does nothing.
 pub struct NoObserver;
 

@@ -5,16 +5,18 @@
 //! the curve, the training throughput, the time per phase, and the render time of one view.
 
 use std::path::PathBuf;
-use std::time::Instant;
 
 use anyhow::Context;
+use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport, Trainable};
 use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_nerf::data::ImageSet;
-use lucid_nerf::eval::evaluate;
 use lucid_nerf::profile::time_kernels;
+use lucid_nerf::run::NerfRun;
 use lucid_nerf::trainer::{NerfTrainer, StepTimings};
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
+
+use crate::budget_curve::BudgetCurve;
 
 /// Options of the NeRF benchmark.
 pub struct NerfBench {
@@ -36,51 +38,31 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
     let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
-    let mut config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
-    let total = *budgets.last().expect("budgets");
-    // Time ends the run (the learning rate decays over the time budget), not steps.
-    config.train.steps = config.train.steps.max(if bench.quick { 400 } else { 6000 });
-    config.train.time_limit = total;
+    let config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     let device = lucid_nerf::backend::training_device();
-    let mut trainer = NerfTrainer::for_dataset(config, &dataset, &train, device);
+    let trainer = NerfTrainer::for_dataset(config, &dataset, &train, device);
+    let mut model = NerfRun { trainer, data: &train, held_out: None };
+    let samples_column = model.log_columns().iter().position(|c| *c == "samples").expect("a samples column");
 
-    let curve_views = bench.curve_views.min(test.len()).max(1);
-    let mut curve = Vec::new();
-    let mut phases = StepTimings::default();
-    let (mut trained, mut samples) = (0.0f64, 0usize);
-    let bar = crate::progress::bar(total as u64, "nerf bench");
-    for &budget in &budgets {
-        while trained < budget && trainer.step < trainer.config.train.steps {
-            let t = Instant::now();
-            trainer.progress = trained / total;
-            let stats = trainer.step(&train);
-            trained += t.elapsed().as_secs_f64();
-            samples += stats.samples;
-            phases.add(&stats.timings);
-            bar.set_position(trained as u64);
+    let mut curve = BudgetCurve::benchmark(bench.quick, &test, bench.curve_views);
+    let total = curve.total();
+    let mut samples = 0usize;
+    let mut observe = |run: &NerfRun, report: &StepReport, seconds: f64| -> Result<(), ModelError> {
+        samples += report.columns[samples_column] as usize;
+        while curve.due(seconds) {
+            let eval_model = run.trainer.eval_model();
+            curve.score(&run.trainer.renderer(&eval_model), seconds, run.trainer.step, json!({}));
         }
-        let last = budget == total;
-        let model = trainer.eval_model();
-        let renderer = trainer.renderer(&model);
-        let (scores, summary) =
-            evaluate(&renderer, &test, if last { None } else { Some(curve_views) }, |_, _, _, _| {});
-        // The curve uses the same first views at every point; the last point also scores the
-        // whole test split.
-        let head = &scores[..curve_views.min(scores.len())];
-        let mean =
-            |f: &dyn Fn(&lucid_nerf::eval::ViewScore) -> f64| head.iter().map(f).sum::<f64>() / head.len() as f64;
-        curve.push(json!({
-            "seconds": trained, "step": trainer.step, "psnr": mean(&|v| v.psnr), "ssim": mean(&|v| v.ssim),
-            "views": head.len(),
-        }));
-        if last {
-            // Best of 7: a call takes ~0.1 s and this machine's hiccups last longer than that.
-            let kernel = time_kernels(&trainer.config.field, 1 << 16, 7);
-            return Ok(report(&trainer, &curve, &summary, &phases, samples, trained, kernel, bench.quick));
-        }
-    }
-    unreachable!("the last budget returns")
+        Ok(())
+    };
+    // Time ends the run, and the learning rate decays over it.
+    let options = RunOptions { label: "nerf bench".into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
+    let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
+    let last = curve.last.take().context("the last budget point is scored")?;
+    // Best of 7: a call takes ~0.1 s and this machine's hiccups last longer than that.
+    let kernel = time_kernels(&model.trainer.config.field, 1 << 16, 7);
+    let phases = StepTimings::from_named(&summary.phases);
+    Ok(report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick))
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -10,15 +10,18 @@ use std::time::Instant;
 
 use anyhow::Context;
 use glam::Vec3;
+use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport};
 use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_scene::dataset::images::{ImageSet, scene_box};
-use lucid_scene::evaluation::{ViewScore, evaluate};
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
 use lucid_splat::raster::{rasterize, rasterize_backward};
+use lucid_splat::run::{PHASES, SplatRun};
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
 use lucid_splat::view::SplatRenderer;
 use lucid_splat::{RenderSettings, RenderState, SplatCamera, SplatCloud, render, render_backward};
 use serde_json::json;
+
+use crate::budget_curve::BudgetCurve;
 
 /// Options of the splat benchmark.
 pub struct SplatBench {
@@ -39,49 +42,32 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test = ImageSet::load(dataset.frames(Split::Test))?;
     let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
-    let mut config = lucid_splat::config::SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let budgets: Vec<f64> = if bench.quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
-    let total = *budgets.last().expect("budgets");
-    config.train.time_limit = total;
+    let config = lucid_splat::config::SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     let cloud = initial_cloud(&config, &dataset).map_err(anyhow::Error::msg)?;
     let (lo, hi) = scene_box(&dataset);
     let device = lucid_burn::backend::training_device();
-    let mut trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, device);
+    let trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, device);
+    let mut model = SplatRun { trainer, data: &train, held_out: None, export: None };
 
-    let curve_views = bench.curve_views.min(test.len()).max(1);
-    let mut curve = Vec::new();
-    let mut phases = [0.0f64; 4];
-    let mut trained = 0.0f64;
-    let bar = crate::progress::bar(total as u64, "splat bench");
-    let mut last_summary = None;
-    for &budget in &budgets {
-        while trained < budget && trainer.step < trainer.config.train.steps {
-            let t = Instant::now();
-            trainer.progress = trained / total;
-            let stats = trainer.step(&train);
-            trained += t.elapsed().as_secs_f64();
-            for (p, s) in phases.iter_mut().zip(stats.timings) {
-                *p += s;
-            }
-            bar.set_position(trained as u64);
+    let mut curve = BudgetCurve::benchmark(bench.quick, &test, bench.curve_views);
+    let total = curve.total();
+    let mut observe = |run: &SplatRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
+        while curve.due(seconds) {
+            let cloud = run.trainer.model.to_cloud();
+            let renderer = SplatRenderer { cloud: &cloud, settings: run.trainer.eval_settings() };
+            curve.score(&renderer, seconds, run.trainer.step, json!({ "gaussians": cloud.len() }));
         }
-        let last = budget == total;
-        let cloud = trainer.model.to_cloud();
-        let renderer = SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
-        let (scores, summary) =
-            evaluate(&renderer, &test, if last { None } else { Some(curve_views) }, |_, _, _, _| {});
-        let head = &scores[..curve_views.min(scores.len())];
-        let mean = |f: &dyn Fn(&ViewScore) -> f64| head.iter().map(f).sum::<f64>() / head.len() as f64;
-        curve.push(json!({
-            "seconds": trained, "step": trainer.step, "psnr": mean(&|v| v.psnr), "ssim": mean(&|v| v.ssim),
-            "views": head.len(), "gaussians": cloud.len(),
-        }));
-        if last {
-            last_summary = Some(summary);
-        }
-    }
-    bar.finish_and_clear();
-    let last = last_summary.expect("the last budget evaluates");
+        Ok(())
+    };
+    // Time ends the run, and the schedules stretch over it.
+    let options = RunOptions { label: "splat bench".into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
+    let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
+    let last = curve.last.take().context("the last budget point is scored")?;
+    let curve = curve.points;
+    let trainer = &model.trainer;
+    let phases: Vec<f64> =
+        PHASES.iter().map(|n| summary.phases.iter().find(|p| p.0 == *n).map_or(0.0, |p| p.1)).collect();
+    let trained = summary.elapsed;
     let trained_cloud = trainer.model.to_cloud();
     let workload = training_workload(&trained_cloud, &train, &trainer.eval_settings());
     let raster = rasterizer_throughput(100_000);
@@ -106,7 +92,7 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         "time per phase: {}",
         names
             .iter()
-            .zip(phases)
+            .zip(&phases)
             .map(|(n, t)| format!("{n} {:.0}%", 100.0 * t / total_phase))
             .collect::<Vec<_>>()
             .join(", ")
@@ -130,7 +116,7 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     Ok(json!({
         "benchmark": "splat", "quick": bench.quick, "threads": rayon::current_num_threads(),
         "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
-        "time_shares": names.iter().zip(phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
+        "time_shares": names.iter().zip(&phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
         "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
     }))
 }

@@ -14,7 +14,9 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
+use lucid_burn::run::{Budget, CHECKPOINT, ModelError, RunOptions, StepReport};
 use lucid_scene::dataset::images::ImageSet;
+use lucid_splat::view::SplatRenderer;
 
 use super::demo_report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
 use super::metrics::compare_files;
@@ -155,38 +157,41 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
 /// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and
 /// scores it on the test views (renders written beside the checkpoint).
 fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
-    use lucid_nerf::data::ImageSet;
-    let frames = dataset.frames(Split::Train);
     let mut config = lucid_nerf::config::NerfConfig::default();
     config.train.steps = args.nerf_steps;
     config.train.seed = args.seed;
-    let train = ImageSet::load(frames)?;
-    let mut trainer =
-        lucid_nerf::trainer::NerfTrainer::for_dataset(config, dataset, &train, lucid_nerf::backend::training_device());
+    let train = lucid_nerf::data::ImageSet::load(dataset.frames(Split::Train))?;
+    let device = lucid_nerf::backend::training_device();
+    let trainer = lucid_nerf::trainer::NerfTrainer::for_dataset(config, dataset, &train, device);
     tracing::info!("training a NeRF for {} steps", args.nerf_steps);
-    let bar = crate::progress::bar(args.nerf_steps as u64, "nerf");
-    let (mut seconds, mut curve) = (0.0, Vec::new());
-    let every = (args.nerf_steps / CURVE_POINTS).max(1);
-    while trainer.step < args.nerf_steps {
-        let started = std::time::Instant::now();
-        trainer.step(&train);
-        seconds += started.elapsed().as_secs_f64();
-        bar.inc(1);
-        if trainer.step.is_multiple_of(every) || trainer.step == args.nerf_steps {
-            let model = trainer.eval_model();
-            curve.push((seconds, held_out_psnr(&trainer.renderer(&model), test)));
+    let dir = model_dir(args, "nerf")?;
+    let mut model = lucid_nerf::run::NerfRun { trainer, data: &train, held_out: None };
+    let mut curve = Vec::new();
+    let every = curve_interval(args.nerf_steps);
+    let mut observe = |run: &lucid_nerf::run::NerfRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
+        if run.trainer.step.is_multiple_of(every) || run.trainer.step == args.nerf_steps {
+            let model = run.trainer.eval_model();
+            curve.push((seconds, held_out_psnr(&run.trainer.renderer(&model), test)));
         }
-    }
-    bar.finish_and_clear();
-    let dir = args.out.join("nerf");
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let checkpoint = dir.join("checkpoint.lucid");
-    lucid_nerf::checkpoint::save(&checkpoint, &trainer, seconds)?;
-    let model = trainer.eval_model();
-    let renderer = trainer.renderer(&model);
-    let (summary, views) = score_and_show(&renderer, test, &dir, &args.out, "NeRF")?;
+        Ok(())
+    };
+    let summary = lucid_burn::run::run(&mut model, &demo_options(args.nerf_steps, &dir, "nerf"), &mut observe)?;
+    let trainer = &model.trainer;
+    let eval_model = trainer.eval_model();
+    let renderer = trainer.renderer(&eval_model);
+    let (scores, views) = score_and_show(&renderer, test, &dir, &args.out, "NeRF")?;
     let novel = novel_views(&renderer, test, &args.out, "NeRF")?;
-    Ok(ModelRun { name: "NeRF", steps: trainer.step, seconds, summary, checkpoint, curve, views, novel })
+    let checkpoint = dir.join(CHECKPOINT);
+    Ok(ModelRun {
+        name: "NeRF",
+        steps: summary.steps,
+        seconds: summary.elapsed,
+        summary: scores,
+        checkpoint,
+        curve,
+        views,
+        novel,
+    })
 }
 
 /// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
@@ -209,32 +214,57 @@ fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::R
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let cloud = initial_cloud(&config, dataset).map_err(anyhow::Error::msg)?;
     let (lo, hi) = scene_box(dataset);
-    let mut trainer =
-        SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
+    let trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
     tracing::info!("training 3D Gaussian splats for {steps} steps");
-    let bar = crate::progress::bar(steps as u64, "splat");
-    let (mut seconds, mut curve) = (0.0, Vec::new());
-    let every = (steps / CURVE_POINTS).max(1);
-    while trainer.step < steps {
-        let started = std::time::Instant::now();
-        trainer.step(&train);
-        seconds += started.elapsed().as_secs_f64();
-        bar.inc(1);
-        if trainer.step.is_multiple_of(every) || trainer.step == steps {
-            let cloud = trainer.model.to_cloud();
-            let renderer = lucid_splat::view::SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
+    let dir = model_dir(args, "splat")?;
+    let export = Some(dir.join("splats.ply"));
+    let mut model = lucid_splat::run::SplatRun { trainer, data: &train, held_out: None, export };
+    let mut curve = Vec::new();
+    let every = curve_interval(steps);
+    let mut observe = |run: &lucid_splat::run::SplatRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
+        if run.trainer.step.is_multiple_of(every) || run.trainer.step == steps {
+            let cloud = run.trainer.model.to_cloud();
+            let renderer = SplatRenderer { cloud: &cloud, settings: run.trainer.eval_settings() };
             curve.push((seconds, held_out_psnr(&renderer, test)));
         }
-    }
-    bar.finish_and_clear();
-    let dir = args.out.join("splat");
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let checkpoint = dir.join("checkpoint.lucid");
-    lucid_splat::checkpoint::save(&checkpoint, &trainer, seconds)?;
-    let cloud = trainer.model.to_cloud();
-    lucid_splat::ply::write_splat_ply(&dir.join("splats.ply"), &cloud)?;
-    let renderer = lucid_splat::view::SplatRenderer { cloud: &cloud, settings: trainer.eval_settings() };
-    let (summary, views) = score_and_show(&renderer, test, &dir, &args.out, "3DGS")?;
+        Ok(())
+    };
+    let summary = lucid_burn::run::run(&mut model, &demo_options(steps, &dir, "splat"), &mut observe)?;
+    let cloud = model.trainer.model.to_cloud();
+    let renderer = SplatRenderer { cloud: &cloud, settings: model.trainer.eval_settings() };
+    let (scores, views) = score_and_show(&renderer, test, &dir, &args.out, "3DGS")?;
     let novel = novel_views(&renderer, test, &args.out, "3DGS")?;
-    Ok(ModelRun { name: "3DGS", steps: trainer.step, seconds, summary, checkpoint, curve, views, novel })
+    let checkpoint = dir.join(CHECKPOINT);
+    Ok(ModelRun {
+        name: "3DGS",
+        steps: summary.steps,
+        seconds: summary.elapsed,
+        summary: scores,
+        checkpoint,
+        curve,
+        views,
+        novel,
+    })
+}
+
+/// `<out>/<name>`, created.
+fn model_dir(args: &DemoArgs, name: &str) -> anyhow::Result<std::path::PathBuf> {
+    let dir = args.out.join(name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    Ok(dir)
+}
+
+/// Steps between the points of a held-out PSNR curve over `steps`.
+fn curve_interval(steps: usize) -> usize {
+    (steps / CURVE_POINTS).max(1)
+}
+
+/// A demo model's run: `steps` steps, one checkpoint at the end in `dir`, no log.
+fn demo_options(steps: usize, dir: &std::path::Path, label: &str) -> RunOptions {
+    RunOptions {
+        checkpoint: Some(dir.join(CHECKPOINT)),
+        checkpoint_seconds: 0.0,
+        label: label.to_string(),
+        ..RunOptions::new(Budget::Steps { steps })
+    }
 }
