@@ -9,7 +9,7 @@ fn clipped_log_psnr(metrics: &serde_json::Value, method: &str) -> f64 {
 }
 
 /// Measured: after 150 steps the network's log-PSNR over clipped pixels is about 6 dB above
-/// the analytic baseline's (issue target: 2 dB); the floor asserts the target.
+/// the analytic baseline's (target: 2 dB); the floor asserts the target.
 #[test]
 fn short_training_beats_the_analytic_baseline_on_held_out_views() {
     let dir = temp_dir();

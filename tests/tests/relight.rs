@@ -5,7 +5,7 @@ use lucid_tests::{lucid_in, temp_dir};
 /// Transport-matrix relighting of a test view under the dataset's held-out environments
 /// against their path-traced truths (same view). At this tiny size (40 px, 16 spp, 64
 /// lights) the path tracer's noise dominates: measured 25.2 and 26.6 dB, floor 22. The
-/// issue's 35 dB target is measured at a higher sample count (see the README).
+/// 35 dB target is measured at a higher sample count (see the README).
 #[test]
 fn olat_relighting_matches_path_traced_environments() {
     let dir = temp_dir();

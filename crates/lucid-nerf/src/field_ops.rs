@@ -1,6 +1,6 @@
 //! The fused radiance field and the compositing as burn backend operations.
 //!
-//! As with [`crate::kernels`], the flex CPU backend runs the slice kernels of
+//! The flex CPU backend runs the slice kernels of
 //! [`crate::field`] and [`crate::render::composite`] on the tensors' own storage; other
 //! backends use the default bodies (host round trip) until they get kernels of their own.
 //! On the autodiff backend the forwards register backward steps: the field's gives

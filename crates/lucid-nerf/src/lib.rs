@@ -1,8 +1,10 @@
 //! Lucid's NeRF on burn.
 //!
-//! The hot loops — here the multiresolution hash encoding — are plain Rust over slices,
-//! parallel with rayon, exposed to burn as custom autodiff operations that work directly on
-//! the CPU backend's storage ([`kernels`]). Parameters, optimisers and checkpoints are burn's.
+//! The hot loops — the radiance field (hash encoding and both MLPs fused, [`field`]) and the
+//! ray compositing ([`render::composite`]) — are plain Rust over slices, parallel with rayon,
+//! exposed to burn as custom autodiff operations that work directly on the CPU backend's
+//! storage ([`field_ops`]). Parameters, optimisers and checkpoints are burn's; the training
+//! loop is Lucid's one loop ([`run`], over [`lucid_burn::run`]).
 //! Which backend runs is chosen by cargo feature ([`backend`]); trainer code only sees
 //! `burn::tensor::Device`.
 
@@ -16,7 +18,6 @@ pub mod error_map;
 pub mod eval;
 pub mod field;
 pub mod field_ops;
-pub mod kernels;
 pub mod model;
 pub mod occupancy;
 pub mod profile;
@@ -25,4 +26,3 @@ pub mod run;
 pub mod trainer;
 
 pub use encoding::hash_grid::{HashGridConfig, HashGridLayout, LevelLayout};
-pub use kernels::hash_grid_encode;

@@ -159,7 +159,8 @@ pub struct RunOptions {
     pub checkpoint_seconds: f64,
     /// The CSV log (none: no log).
     pub log: Option<PathBuf>,
-    /// Steps between log rows.
+    /// Steps between log rows; a row holds the mean loss and PSNR of the steps since the last
+    /// row this process logged (after a resume between rows, of fewer steps).
     pub log_every: usize,
     /// Training seconds already spent (a resumed run's, from its checkpoint); a run with
     /// `resumed` keeps its log rows up to its current step.

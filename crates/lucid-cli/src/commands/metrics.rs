@@ -4,8 +4,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use lucid_image::metrics::{ImageMetrics, MetricSpace, MetricSummary, compare, prepare_for_metrics};
-use lucid_image::{ImageFormat, read_image};
+use lucid_image::ImageFormat;
+use lucid_image::metrics::{ImageMetrics, MetricSpace, MetricSummary, compare_files};
 use rayon::prelude::*;
 use serde_json::json;
 
@@ -53,13 +53,6 @@ pub fn run(args: MetricsArgs) -> anyhow::Result<()> {
         println!("(space {space_name}, background {background:?})");
     }
     Ok(())
-}
-
-/// Compares two image files in the metric space, naming the files in any error.
-pub fn compare_files(a: &Path, b: &Path, background: [f32; 3], space: MetricSpace) -> anyhow::Result<ImageMetrics> {
-    let ia = prepare_for_metrics(&read_image(a)?, background, space);
-    let ib = prepare_for_metrics(&read_image(b)?, background, space);
-    compare(&ia, &ib, None).with_context(|| format!("comparing {} with {}", a.display(), b.display()))
 }
 
 /// Pairs each image in `a` with the image of the same stem in `b` (same extension preferred).

@@ -1,13 +1,8 @@
 //! One module per subcommand; each exposes `run(args) -> anyhow::Result<()>`.
 
 mod bench;
-mod bench_hdr;
-mod bench_nerf;
-mod bench_report;
-mod bench_splat;
 mod convert;
 pub mod demo;
-mod demo_report;
 mod envmap;
 mod eval;
 pub mod generate;
@@ -17,8 +12,6 @@ mod metrics;
 mod refocus;
 mod relight;
 mod render;
-mod render_model;
-mod rig_file;
 mod tonemap;
 mod train_itm;
 mod train_nerf;

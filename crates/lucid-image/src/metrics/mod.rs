@@ -46,6 +46,36 @@ pub fn compare(prediction: &Image, reference: &Image, mask: Option<&[f32]>) -> R
     Ok(ImageMetrics { psnr: psnr(prediction, reference, mask)?, ssim: ssim(prediction, reference, mask)? })
 }
 
+/// Why two image files could not be compared; the message names the files.
+#[derive(Debug, thiserror::Error)]
+pub enum FileMetricError {
+    /// A file could not be read.
+    #[error(transparent)]
+    Read(#[from] crate::ImageError),
+    /// The images cannot be compared.
+    #[error("comparing {} with {}: {source}", a.display(), b.display())]
+    Compare {
+        /// The prediction.
+        a: std::path::PathBuf,
+        /// The reference.
+        b: std::path::PathBuf,
+        /// Why.
+        source: MetricError,
+    },
+}
+
+/// Compares two image files in the metric space, composited on `background`.
+pub fn compare_files(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    background: [f32; 3],
+    space: MetricSpace,
+) -> Result<ImageMetrics, FileMetricError> {
+    let ia = prepare_for_metrics(&crate::read_image(a)?, background, space);
+    let ib = prepare_for_metrics(&crate::read_image(b)?, background, space);
+    compare(&ia, &ib, None).map_err(|source| FileMetricError::Compare { a: a.into(), b: b.into(), source })
+}
+
 /// Averages of metrics over a set of image pairs, per image as the literature does
 /// (mean of per-image PSNRs, not PSNR of the mean error).
 #[derive(Clone, Copy, Debug, PartialEq)]

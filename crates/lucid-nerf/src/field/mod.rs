@@ -4,7 +4,8 @@
 //! chunks of samples with rayon, matrix products on `gemm`.
 //!
 //! Fused by hand because burn's per-layer ops on the CPU spend more time allocating and
-//! copying `S×64` activations than multiplying them (see the NeRF issue's measurements); the
+//! copying `S×64` activations than multiplying them (`lucid bench nerf` and the README's NeRF
+//! section give the measurements); the
 //! weights are still burn parameters (a table and one flat MLP vector).
 
 pub mod mlp;

@@ -23,6 +23,7 @@
 
 pub mod images;
 mod read;
+pub mod summary;
 mod write;
 
 use std::path::{Path, PathBuf};

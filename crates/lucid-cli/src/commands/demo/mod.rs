@@ -5,11 +5,13 @@
 //! `<out>/dataset/`, `<out>/nerf/`, `<out>/splat/` (checkpoints, test renders, `splats.ply`),
 //! `<out>/metrics.json` and `<out>/report.html` (with its images in `<out>/images/`).
 
+mod report;
+
 use anyhow::{Context, bail};
 use glam::Vec4Swizzles;
 use lucid_datasets_gen::builtin::{load_named_scene, object_orbit_spec};
 use lucid_datasets_gen::{PathTracedScene, Shard, generate_dataset};
-use lucid_image::metrics::{MetricSpace, MetricSummary};
+use lucid_image::metrics::{MetricSpace, MetricSummary, compare_files};
 use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
@@ -18,9 +20,8 @@ use lucid_burn::run::{Budget, CHECKPOINT, ModelError, RunOptions, StepReport};
 use lucid_scene::dataset::images::ImageSet;
 use lucid_splat::view::SplatRenderer;
 
-use super::demo_report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
-use super::metrics::compare_files;
 use crate::cli::DemoArgs;
+use report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
 
 /// Points on each held-out PSNR curve.
 const CURVE_POINTS: usize = 8;
@@ -57,7 +58,7 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let generation_seconds = started.elapsed().as_secs_f64();
 
     let dataset = Dataset::open(&root)?;
-    let summary = super::info::summarise(&dataset);
+    let summary = lucid_scene::dataset::summary::summarise(&dataset);
 
     // 1. The LDR images against the exact HDR truth through the same tone curve: only 8-bit
     //    quantisation separates them, so this is a check of the file pipeline.
@@ -135,7 +136,7 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
         "seconds": elapsed,
     });
     let path = args.out.join("metrics.json");
-    super::write_text(&path, &serde_json::to_string_pretty(&report)?)?;
+    crate::commands::write_text(&path, &serde_json::to_string_pretty(&report)?)?;
     println!("metrics written to {}", path.display());
     let facts = DemoFacts {
         size: args.size,

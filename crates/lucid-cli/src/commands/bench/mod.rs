@@ -1,15 +1,17 @@
 //! `lucid bench`: fixed-seed benchmarks that print a table (and optionally JSON).
 
-use std::path::Path;
+mod hdr;
+mod nerf;
+mod report;
+mod splat;
 
 use lucid_scene::{Intrinsics, PinholeCamera};
-use lucid_trace::{RenderCamera, parse_scene, render};
+use lucid_trace::{RenderCamera, render};
 use serde_json::json;
 
 use crate::cli::{BenchArgs, BenchTarget};
 
 /// The reference scene, compiled in so the benchmark runs from any directory.
-const CORNELL: &str = include_str!("../../../../configs/scenes/cornell.toml");
 /// Image mean of the reference render (shared/reference/cornell-box.md).
 const CORNELL_REFERENCE_MEAN: f64 = 0.1470;
 
@@ -27,7 +29,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         all => serde_json::Value::Array(all.to_vec()),
     };
     if let Some(path) = &args.json {
-        super::write_text(path, &serde_json::to_string_pretty(&result)?)?;
+        crate::commands::write_text(path, &serde_json::to_string_pretty(&result)?)?;
         println!("results written to {}", path.display());
     }
     let report_dir = match (&args.report, args.target) {
@@ -37,8 +39,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     };
     if let Some(dir) = report_dir {
         std::fs::create_dir_all(&dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
-        super::write_text(&dir.join("results.json"), &serde_json::to_string_pretty(&result)?)?;
-        let html = super::bench_report::write_report(&results, args.quick, &dir)?;
+        crate::commands::write_text(&dir.join("results.json"), &serde_json::to_string_pretty(&result)?)?;
+        let html = report::write_report(&results, args.quick, &dir)?;
         println!("report written to {}", html.display());
     }
     Ok(())
@@ -47,25 +49,25 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
     Ok(match target {
         BenchTarget::Trace => bench_trace(args.quick)?,
-        BenchTarget::Nerf => super::bench_nerf::run(super::bench_nerf::NerfBench {
+        BenchTarget::Nerf => nerf::run(nerf::NerfBench {
             dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
-        BenchTarget::Splat => super::bench_splat::run(super::bench_splat::SplatBench {
+        BenchTarget::Splat => splat::run(splat::SplatBench {
             dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
-        BenchTarget::Hdr => super::bench_hdr::run(args.quick)?,
+        BenchTarget::Hdr => hdr::run(args.quick)?,
         BenchTarget::All => unreachable!("expanded by run"),
     })
 }
 
 fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
-    let mut loaded = parse_scene(CORNELL, Path::new("configs/scenes/cornell.toml"))?;
+    let mut loaded = lucid_datasets_gen::builtin::load_named_scene("cornell")?;
     if quick {
         let RenderCamera::Pinhole(c) = loaded.camera else { anyhow::bail!("the Cornell camera is a pinhole") };
         loaded.camera = RenderCamera::Pinhole(PinholeCamera::new(

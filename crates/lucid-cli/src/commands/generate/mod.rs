@@ -1,6 +1,8 @@
 //! `lucid gen SCENE --rig orbit -o DIR`: path-traced datasets in the NeRF-synthetic layout,
 //! with a `dataset.toml` that records how to regenerate them.
 
+mod rig_file;
+
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_datasets_gen::writer::DatasetSpec;
@@ -42,7 +44,7 @@ struct DatasetRecord<'a> {
 }
 
 pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
-    let rig = super::rig_file::resolve_rig(&mut args, matches)?;
+    let rig = rig_file::resolve_rig(&mut args, matches)?;
     if args.res == 0 || args.res > 8192 {
         bail!("--res {} must be in 1..=8192", args.res);
     }
@@ -56,7 +58,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         bail!("--views needs at least one training view");
     }
     let mut loaded = lucid_datasets_gen::builtin::load_named_scene(&args.scene)?;
-    super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
+    crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     let orbit = OrbitRig {
         radius: args.radius,
         target: Vec3::ZERO,

@@ -1,5 +1,7 @@
 //! `lucid render SCENE.toml -o OUT`: path-traces a scene file.
 
+mod model;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::bail;
@@ -12,14 +14,14 @@ use crate::cli::RenderArgs;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.scene.extension().is_some_and(|e| e == "lucid") || lucid_nerf::checkpoint::is_checkpoint(&args.scene) {
-        return super::render_model::run(args);
+        return model::run(args);
     }
     let format = ImageFormat::from_path(&args.output)?;
     if !matches!(format, ImageFormat::Exr | ImageFormat::Png) {
         bail!("{}: render writes .exr or .png (with the other beside it)", args.output.display());
     }
     let mut loaded = load_scene(&args.scene)?;
-    super::override_samples(&mut loaded.settings, args.spp, args.seed)?;
+    crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     if let Some(depth) = args.max_depth {
         if depth == 0 {
             bail!("--max-depth must be at least 1");

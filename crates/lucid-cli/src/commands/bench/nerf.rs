@@ -1,4 +1,4 @@
-//! `lucid bench nerf`: the NeRF benchmark of the NeRF issue. Generates (or reuses) the default
+//! `lucid bench nerf`: the NeRF benchmark. Generates (or reuses) the default
 //! `object` orbit set at 200×200 (100 training views, 200 test views), trains with the default
 //! configuration for a fixed wall-clock budget, and evaluates held-out PSNR/SSIM at fixed
 //! times (30 s, 1, 2, 5 and 10 min of training; evaluation time is not counted), then prints
