@@ -3,7 +3,7 @@
 //! The hot loops — the radiance field (hash encoding and both MLPs fused, [`field`]) and the
 //! ray compositing ([`render::composite`]) — are plain Rust over slices, parallel with rayon,
 //! exposed to burn as custom autodiff operations that work directly on the CPU backend's
-//! storage ([`field_ops`]). Parameters, optimisers and checkpoints are burn's; the training
+//! storage ([`ops`]). Parameters, optimisers and checkpoints are burn's; the training
 //! loop is Lucid's one loop ([`run`], over [`lucid_burn::run`]).
 //! Which backend runs is chosen by cargo feature ([`backend`]); trainer code only sees
 //! `burn::tensor::Device`.
@@ -17,9 +17,9 @@ pub mod encoding;
 pub mod error_map;
 pub mod eval;
 pub mod field;
-pub mod field_ops;
 pub mod model;
 pub mod occupancy;
+pub mod ops;
 pub mod profile;
 pub mod render;
 pub mod run;

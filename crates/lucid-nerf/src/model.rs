@@ -6,7 +6,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use lucid_scene::sampling::Rng;
 
 use crate::field::FieldConfig;
-use crate::field_ops;
+use crate::ops;
 
 /// Parameters of the radiance field.
 #[derive(Module, Debug)]
@@ -47,11 +47,11 @@ impl NerfModel {
 
     /// `σ, r, g, b` at normalised positions along unit directions.
     pub fn field(&self, positions: Tensor<2>, directions: Tensor<2>, config: FieldConfig) -> Tensor<2> {
-        field_ops::field(positions, directions, self.table.val(), self.mlp.val(), config)
+        ops::field(positions, directions, self.table.val(), self.mlp.val(), config)
     }
 
     /// Density only, never tracked.
     pub fn density(&self, positions: Tensor<2>, config: FieldConfig) -> Tensor<1> {
-        field_ops::field_density(positions, self.table.val(), self.mlp.val(), config)
+        ops::field_density(positions, self.table.val(), self.mlp.val(), config)
     }
 }

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use burn::tensor::{Tensor, TensorData};
 use lucid_nerf::field::FieldConfig;
-use lucid_nerf::field_ops::{composite, field};
+use lucid_nerf::ops::{composite, field};
 use lucid_nerf::render::composite::PackedSamples;
 use lucid_nerf::{HashGridConfig, backend};
 use lucid_scene::sampling::Rng;

@@ -3,7 +3,7 @@
 //! and the backward scatter-add of gradients into the table.
 //!
 //! Written by hand because no crate provides it on the CPU; the fused field
-//! ([`crate::field`], run as a burn op by [`crate::field_ops`]) calls these functions.
+//! ([`crate::field`], run as a burn op by [`crate::ops`]) calls these functions.
 //!
 //! Level `l` has the grid scale `s_l = N_min·b^l − 1` with `b = exp((ln N_max − ln N_min)/(L−1))`;
 //! a point `x ∈ [0,1]³` sits at `x·s_l + 0.5` in grid units, and its 8 surrounding vertices
