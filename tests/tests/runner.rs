@@ -139,6 +139,9 @@ fn a_second_writer_is_refused_naming_the_folder_and_the_holder() {
     child.wait().unwrap();
     train.failure(&["busy", "in use by another lucid process", &pid]);
     generate.failure(&["busy", "in use by another lucid process", &pid]);
+    // Killed before its first checkpoint: nothing to resume, and the message says what to do.
+    lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--resume"])
+        .failure(&["before its first checkpoint", "--overwrite"]);
     // Once the holder is gone, the folder is free again.
     lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--overwrite", "--steps", "1", "--no-eval"]).success();
 }

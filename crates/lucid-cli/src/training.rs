@@ -102,3 +102,16 @@ pub fn open_dataset(root: &Path) -> anyhow::Result<Dataset> {
     }
     Ok(dataset)
 }
+
+/// The checkpoint a resumed run continues from, or an error saying why there is none.
+pub fn checkpoint_to_resume(folder: &RunFolder) -> anyhow::Result<std::path::PathBuf> {
+    let path = folder.checkpoint();
+    if !path.is_file() {
+        bail!(
+            "{}: the run stopped before its first checkpoint (one is saved every --checkpoint-seconds of \
+             training, 60 by default); start it again with --overwrite",
+            path.display()
+        );
+    }
+    Ok(path)
+}

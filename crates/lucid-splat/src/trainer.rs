@@ -242,9 +242,10 @@ impl SplatTrainer {
         self.since_densify += 1;
         let before = self.schedule;
         // The reference schedule's position after this step: under a step budget the step
-        // count, under a time budget stretched over the seconds.
-        let position = (self.progress() * cfg.steps as f64).round() as usize + 1;
-        self.schedule = position.max(before);
+        // count, under a time budget stretched over the seconds (and at least one further
+        // per step). Rounded down, the position never runs ahead of the budget used.
+        let position = (self.progress() * cfg.steps as f64) as usize;
+        self.schedule = position.max(before + 1);
         let d = self.config.densify;
         let mut densified = None;
         let in_window = self.schedule < d.until;

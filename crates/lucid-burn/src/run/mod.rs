@@ -267,7 +267,9 @@ pub fn run<T: Trainable + ?Sized>(
         psnr_sum += report.psnr.map_or(f64::NAN, f64::from);
         window += 1;
         let io_started = Instant::now();
-        if step.is_multiple_of(options.log_every.max(1)) || budget.steps() == Some(step) {
+        // The last step of the budget gets a row whatever its number (a time budget ends
+        // anywhere); a stop at `until` does not, as if the run had been killed there.
+        if step.is_multiple_of(options.log_every.max(1)) || budget.spent(step, elapsed) {
             let (loss, psnr) = (loss_sum / window as f64, psnr_sum / window as f64);
             (loss_sum, psnr_sum, window) = (0.0, 0.0, 0);
             let psnr = psnr.is_finite().then_some(psnr);

@@ -173,6 +173,16 @@ fn each_budget_mode_ends_and_schedules_as_documented() {
     assert!(last > 0.8 && last < 1.0, "schedule reached {last}");
     assert!(toy.progress.windows(2).all(|w| w[0] < w[1]));
 
+    // The last step of a time budget gets a log row whatever its number.
+    let options = RunOptions {
+        log: Some(dir.path().join("train_log.csv")),
+        log_every: 1000,
+        ..RunOptions::new(Budget::Seconds { seconds: 0.05 })
+    };
+    let mut toy = Toy::new(2);
+    run(&mut toy, &options, &mut NoObserver).unwrap();
+    assert_eq!(log_steps(dir.path()).1, [toy.step]);
+
     // Both: whichever ends first.
     let mut toy = Toy::new(1);
     run(&mut toy, &RunOptions::new(Budget::First { steps: 5, seconds: 100.0 }), &mut NoObserver).unwrap();

@@ -35,7 +35,8 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
     let device = lucid_burn::backend::training_device();
     let (trainer, elapsed) = match config {
         None => {
-            let mut loaded = checkpoint::load(&folder.checkpoint(), &device).context("resuming")?;
+            let mut loaded =
+                checkpoint::load(&training::checkpoint_to_resume(&folder)?, &device).context("resuming")?;
             training::extend_steps(&args.run, &mut loaded.trainer.config.train.steps);
             (loaded.trainer, loaded.header.elapsed)
         }
