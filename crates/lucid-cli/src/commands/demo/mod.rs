@@ -180,19 +180,7 @@ fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Re
     let trainer = &model.trainer;
     let eval_model = trainer.eval_model();
     let renderer = trainer.renderer(&eval_model);
-    let (scores, views) = score_and_show(&renderer, test, &dir, &args.out, "NeRF")?;
-    let novel = novel_views(&renderer, test, &args.out, "NeRF")?;
-    let checkpoint = dir.join(CHECKPOINT);
-    Ok(ModelRun {
-        name: "NeRF",
-        steps: summary.steps,
-        seconds: summary.elapsed,
-        summary: scores,
-        checkpoint,
-        curve,
-        views,
-        novel,
-    })
+    show_run("NeRF", &renderer, &summary, curve, test, &dir, args)
 }
 
 /// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
@@ -233,19 +221,24 @@ fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::R
     let summary = lucid_burn::run::run(&mut model, &demo_options(steps, &dir, "splat"), &mut observe)?;
     let cloud = model.trainer.model.to_cloud();
     let renderer = SplatRenderer { cloud: &cloud, settings: model.trainer.eval_settings() };
-    let (scores, views) = score_and_show(&renderer, test, &dir, &args.out, "3DGS")?;
-    let novel = novel_views(&renderer, test, &args.out, "3DGS")?;
+    show_run("3DGS", &renderer, &summary, curve, test, &dir, args)
+}
+
+/// A trained model's part of the report: its scores on every test view (renders in `dir`),
+/// the views shown and the novel views.
+fn show_run(
+    name: &'static str,
+    renderer: &dyn lucid_scene::evaluation::ViewModel,
+    run: &lucid_burn::run::RunSummary,
+    curve: Vec<(f64, f64)>,
+    test: &ImageSet,
+    dir: &std::path::Path,
+    args: &DemoArgs,
+) -> anyhow::Result<ModelRun> {
+    let (summary, views) = score_and_show(renderer, test, dir, &args.out, name)?;
+    let novel = novel_views(renderer, test, &args.out, name)?;
     let checkpoint = dir.join(CHECKPOINT);
-    Ok(ModelRun {
-        name: "3DGS",
-        steps: summary.steps,
-        seconds: summary.elapsed,
-        summary: scores,
-        checkpoint,
-        curve,
-        views,
-        novel,
-    })
+    Ok(ModelRun { name, steps: run.steps, seconds: run.elapsed, summary, checkpoint, curve, views, novel })
 }
 
 /// `<out>/<name>`, created.
