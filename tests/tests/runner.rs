@@ -95,8 +95,9 @@ fn a_time_limited_run_killed_after_its_first_checkpoint_resumes_and_finishes() {
     assert!(steps.last() > before.last(), "the resumed run went on");
     let header: serde_json::Value = {
         let bytes = std::fs::read(&ckpt).unwrap();
-        let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-        serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+        // Magic, version, section count, then the header's length and the header.
+        let len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+        serde_json::from_slice(&bytes[24..24 + len]).unwrap()
     };
     assert!(header["elapsed"].as_f64().unwrap() >= 8.0, "finished its budget: {header}");
 }
@@ -134,11 +135,20 @@ fn a_second_writer_is_refused_naming_the_folder_and_the_holder() {
     let (mut child, _) = spawn_until(d, &args, &d.join("busy/run.json"));
     let pid = child.id().to_string();
     let train = lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--overwrite", "--steps", "2"]);
+    // gen never writes into a folder it did not make, busy or not.
     let generate = lucid_in(d, &["gen", "object", "-o", "busy", "--views", "1,0,0", "--res", "8"]);
     child.kill().unwrap();
     child.wait().unwrap();
     train.failure(&["busy", "in use by another lucid process", &pid]);
-    generate.failure(&["busy", "in use by another lucid process", &pid]);
+    generate.failure(&["busy", "did not write"]);
+    // Two gens into one folder: the second is told who holds it.
+    let args = ["gen", "object", "-o", "g", "--views", "40,0,0", "--res", "64", "--spp", "64", "-q"];
+    let (mut first, _) = spawn_until(d, &args, &d.join("g/dataset.toml"));
+    let second = lucid_in(d, &args);
+    let first_pid = first.id().to_string();
+    first.kill().unwrap();
+    first.wait().unwrap();
+    second.failure(&["g", "in use by another lucid process", &first_pid]);
     // Killed before its first checkpoint: nothing to resume, and the message says what to do.
     lucid_in(d, &["train", "splat", "ds", "-o", "busy", "--resume"])
         .failure(&["before its first checkpoint", "--overwrite"]);

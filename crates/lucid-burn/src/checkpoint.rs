@@ -1,13 +1,23 @@
 //! The checkpoint container every trainer writes: the magic `LUCIDCKP`, a little-endian `u32`
-//! format version, then length-prefixed (`u64`) sections, the first a JSON header whose
-//! `kind` names the model. Written to a temporary name and renamed, so a crash never leaves
-//! a torn file under the real name.
+//! format version, a `u32` section count, the length-prefixed (`u64`) sections, the first a
+//! JSON header whose `kind` names the model, and a CRC-32 of everything before it, so a
+//! damaged file (a flipped byte, a cut, bytes appended) is refused instead of loading as a
+//! different model. Written to a temporary name and renamed, so a crash never leaves a torn
+//! file under the real name. Version 1 files (no count, no checksum) are still read.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"LUCIDCKP";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
+
+/// The version without section count and checksum, still read.
+const VERSION_1: u32 = 1;
+
+/// Bytes before the first section: magic, version and (from version 2) the section count.
+fn preamble_len(version: u32) -> usize {
+    if version == VERSION_1 { 12 } else { 16 }
+}
 
 /// Why a checkpoint could not be read or written; each message names the file.
 #[derive(Debug, thiserror::Error)]
@@ -44,18 +54,17 @@ pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
     let io = |source| CheckpointError::Io { path: path.into(), source };
     let mut file = std::fs::File::open(path).map_err(io)?;
     let size = file.metadata().map_err(io)?.len();
-    let mut preamble = Vec::with_capacity(20);
-    (&mut file).take(20).read_to_end(&mut preamble).map_err(io)?;
-    check_preamble(path, &preamble)?;
-    if preamble.len() < 20 {
-        return Err(invalid(path, "truncated (no header)"));
-    }
-    let len = u64::from_le_bytes(preamble[12..20].try_into().expect("8 bytes"));
-    if len > size.saturating_sub(20) {
-        return Err(invalid(
-            path,
-            format!("truncated (section 0 needs {len} bytes, {} left)", size.saturating_sub(20)),
-        ));
+    let mut preamble = Vec::with_capacity(16);
+    (&mut file).take(16).read_to_end(&mut preamble).map_err(io)?;
+    let start = preamble_len(check_preamble(path, &preamble)?) as u64;
+    use std::io::Seek;
+    file.seek(std::io::SeekFrom::Start(start)).map_err(io)?;
+    let mut len = [0u8; 8];
+    file.read_exact(&mut len).map_err(|_| invalid(path, "truncated (no header)"))?;
+    let len = u64::from_le_bytes(len);
+    let left = size.saturating_sub(start + 8);
+    if len > left {
+        return Err(invalid(path, format!("truncated (section 0 needs {len} bytes, {left} left)")));
     }
     let mut head = Vec::with_capacity(len as usize);
     file.take(len).read_to_end(&mut head).map_err(io)?;
@@ -64,16 +73,22 @@ pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
     Ok(header.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown").to_string())
 }
 
-/// Checks the magic and the format version at the start of `bytes`.
-fn check_preamble(path: &Path, bytes: &[u8]) -> Result<(), CheckpointError> {
+/// Checks the magic and the format version at the start of `bytes`; returns the version.
+fn check_preamble(path: &Path, bytes: &[u8]) -> Result<u32, CheckpointError> {
     if bytes.len() < 12 || &bytes[..8] != MAGIC {
         return Err(invalid(path, "not a Lucid checkpoint (bad magic)"));
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(invalid(path, format!("checkpoint format version {version}, this build reads {VERSION}")));
+    if version != VERSION && version != VERSION_1 {
+        return Err(invalid(
+            path,
+            format!("checkpoint format version {version}, this build reads {VERSION_1} and {VERSION}"),
+        ));
     }
-    Ok(())
+    if bytes.len() < preamble_len(version) {
+        return Err(invalid(path, "truncated (no section count)"));
+    }
+    Ok(version)
 }
 
 /// An [`CheckpointError::Invalid`] for `path`.
@@ -86,22 +101,41 @@ pub fn parse<'a, H: serde::de::DeserializeOwned>(
     path: &Path,
     bytes: &'a [u8],
 ) -> Result<(H, Vec<&'a [u8]>), CheckpointError> {
-    check_preamble(path, bytes)?;
-    let mut rest = &bytes[12..];
+    let version = check_preamble(path, bytes)?;
+    let mut rest = &bytes[preamble_len(version)..];
+    // Version 1 has no count: its sections run to the end of the file.
+    let count = (version != VERSION_1).then(|| u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize);
     let mut sections = Vec::new();
-    while !rest.is_empty() {
+    while count.map_or(!rest.is_empty(), |c| sections.len() < c) {
         if rest.len() < 8 {
             return Err(invalid(path, "truncated (a section length is cut off)"));
         }
-        let len = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes")) as usize;
-        if rest.len() - 8 < len {
-            return Err(invalid(
-                path,
-                format!("truncated (section {} needs {len} bytes, {} left)", sections.len(), rest.len() - 8),
-            ));
+        let len = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes"));
+        let left = rest.len() - 8;
+        if (left as u64) < len {
+            // No checkpoint section reaches a terabyte: such a length is damage, not a cut.
+            let reason = if len > 1 << 40 {
+                format!("damaged: section {} claims {len} bytes, the file has {}", sections.len(), bytes.len())
+            } else {
+                format!("truncated (section {} needs {len} bytes, {left} left)", sections.len())
+            };
+            return Err(invalid(path, reason));
         }
+        let len = len as usize;
         sections.push(&rest[8..8 + len]);
         rest = &rest[8 + len..];
+    }
+    if count.is_some() {
+        match rest.len() {
+            0..4 => return Err(invalid(path, "truncated (the checksum is cut off)")),
+            4 => {}
+            n => return Err(invalid(path, format!("damaged: {} bytes follow the last section", n - 4))),
+        }
+        let body = &bytes[..bytes.len() - 4];
+        let stored = u32::from_le_bytes(rest.try_into().expect("4 bytes"));
+        if crc32fast::hash(body) != stored {
+            return Err(invalid(path, "damaged: the checksum does not match the contents (a changed byte)"));
+        }
     }
     let Some((head, tail)) = sections.split_first() else {
         return Err(invalid(path, "truncated (no header)"));
@@ -130,13 +164,20 @@ pub fn write_sections(path: &Path, sections: &[&[u8]]) -> Result<(), CheckpointE
         std::process::id()
     ));
     let write = || -> std::io::Result<()> {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        let mut f = ChecksummedWriter {
+            inner: std::io::BufWriter::new(std::fs::File::create(&tmp)?),
+            crc: crc32fast::Hasher::new(),
+        };
         f.write_all(MAGIC)?;
         f.write_all(&VERSION.to_le_bytes())?;
+        f.write_all(&(sections.len() as u32).to_le_bytes())?;
         for section in sections {
             f.write_all(&(section.len() as u64).to_le_bytes())?;
             f.write_all(section)?;
         }
+        let crc = f.crc.finalize();
+        let mut f = f.inner;
+        f.write_all(&crc.to_le_bytes())?;
         f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
         std::fs::rename(&tmp, path)
     };
@@ -144,6 +185,24 @@ pub fn write_sections(path: &Path, sections: &[&[u8]]) -> Result<(), CheckpointE
         let _ = std::fs::remove_file(&tmp);
         CheckpointError::Io { path: path.into(), source }
     })
+}
+
+/// A writer that checksums what passes through it.
+struct ChecksummedWriter<W> {
+    inner: W,
+    crc: crc32fast::Hasher,
+}
+
+impl<W: Write> Write for ChecksummedWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.crc.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
 }
 
 #[cfg(test)]
@@ -168,5 +227,60 @@ mod tests {
         std::fs::write(dir.join("d.lucid"), b"\x89PNG\r\n\x1a\n....").unwrap();
         assert!(read_kind(&dir.join("d.lucid")).unwrap_err().to_string().contains("not a Lucid checkpoint"));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Any flipped byte, any cut and any appended bytes are refused, with a message that says
+    /// the file is damaged or truncated; the intact file reads back its sections.
+    #[test]
+    fn damaged_checkpoints_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.lucid");
+        let payload: Vec<u8> = (0..300u32).map(|i| (i * 7) as u8).collect();
+        write_sections(&path, &[br#"{"kind": "splat"}"#, &payload, b""]).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let (value, sections) = read_kind_sections(&path, "splat").unwrap();
+        assert_eq!(value["kind"], "splat");
+        assert_eq!(sections, vec![payload.clone(), Vec::new()]);
+        let refused = |damaged: &[u8]| -> String {
+            let p = dir.path().join("d.lucid");
+            std::fs::write(&p, damaged).unwrap();
+            read_kind_sections(&p, "splat").unwrap_err().to_string()
+        };
+        for i in 0..bytes.len() {
+            for bit in [0x01u8, 0x80] {
+                let mut d = bytes.clone();
+                d[i] ^= bit;
+                let err = refused(&d);
+                assert!(
+                    ["damaged", "bad magic", "version", "truncated"].iter().any(|w| err.contains(w)),
+                    "byte {i}: {err}"
+                );
+            }
+        }
+        for cut in 0..bytes.len() {
+            let err = refused(&bytes[..cut]);
+            assert!(err.contains("damaged") || err.contains("truncated") || err.contains("magic"), "cut {cut}: {err}");
+        }
+        let mut appended = bytes.clone();
+        appended.extend_from_slice(b"garbage appended by something else");
+        let err = refused(&appended);
+        assert!(err.contains("damaged") && !err.contains("7450474826515505511"), "{err}");
+    }
+
+    /// Files of the first format (no count, no checksum) still load.
+    #[test]
+    fn version_1_files_still_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v1.lucid");
+        let header = br#"{"kind": "nerf"}"#;
+        let mut bytes = MAGIC.to_vec();
+        bytes.extend_from_slice(&1u32.to_le_bytes());
+        for s in [&header[..], &[1, 2, 3]] {
+            bytes.extend_from_slice(&(s.len() as u64).to_le_bytes());
+            bytes.extend_from_slice(s);
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        assert_eq!(read_kind(&path).unwrap(), "nerf");
+        assert_eq!(read_kind_sections(&path, "nerf").unwrap().1, vec![vec![1, 2, 3]]);
     }
 }

@@ -12,6 +12,7 @@
 pub mod backend;
 pub mod checkpoint;
 pub mod config;
+pub mod memory;
 pub mod optim;
 pub mod run;
 
@@ -21,6 +22,33 @@ use burn::backend::autodiff::ops::{Backward, Ops, OpsKind};
 use burn::backend::{Autodiff, Backend, tensor::FloatTensor};
 
 pub use optim::FusedAdam;
+
+/// The path (`encoder.weight`) of the first float parameter of `module` that holds NaN or an
+/// infinity. Each parameter is checked through its sum, one reduction on the device, so the
+/// parameters are not copied to the host; a sum overflowing `f32` counts as non-finite too,
+/// which no healthy model's parameters reach.
+pub fn first_non_finite<M: burn::module::Module>(module: &M) -> Option<String> {
+    struct Finder {
+        path: Vec<String>,
+        found: Option<String>,
+    }
+    impl burn::module::ModuleVisitor for Finder {
+        fn enter_module(&mut self, name: &str, _: &str) {
+            self.path.push(name.to_string());
+        }
+        fn exit_module(&mut self, _: &str, _: &str) {
+            self.path.pop();
+        }
+        fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<burn::tensor::Tensor<D>>) {
+            if self.found.is_none() && !param.val().sum().into_scalar::<f32>().is_finite() {
+                self.found = Some(if self.path.is_empty() { "a parameter".into() } else { self.path.join(".") });
+            }
+        }
+    }
+    let mut finder = Finder { path: Vec::new(), found: None };
+    module.visit(&mut finder);
+    finder.found
+}
 
 /// Reads a float tensor to host memory as `f32` (the portable bodies of our ops).
 pub fn to_host<B: Backend>(tensor: FloatTensor<B>) -> Vec<f32> {

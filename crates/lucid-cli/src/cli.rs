@@ -739,6 +739,11 @@ pub struct ConvertArgs {
     /// Write 16-bit PNG instead of 8-bit.
     #[arg(long)]
     pub png16: bool,
+    /// What transparent pixels are composited over when the output has no alpha channel
+    /// (PFM, RGBE, JPEG): white, black, grey or R,G,B (linear). Without it they are
+    /// composited over black (premultiplied colour), and a warning says so.
+    #[arg(long)]
+    pub background: Option<String>,
 }
 
 /// Colour space of the metrics.

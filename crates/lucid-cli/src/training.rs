@@ -103,6 +103,23 @@ pub fn open_dataset(root: &Path) -> anyhow::Result<Dataset> {
     Ok(dataset)
 }
 
+/// Pixels of the training frames (from their intrinsics, before any is read): in all, and of
+/// the largest.
+pub fn training_pixels(dataset: &Dataset) -> (usize, usize) {
+    let sizes = dataset.frames(Split::Train).iter().map(|f| {
+        let k = f.camera.intrinsics;
+        k.width as usize * k.height as usize
+    });
+    sizes.fold((0, 0), |(sum, max), n| (sum + n, max.max(n)))
+}
+
+/// Refuses a configuration whose estimated peak memory exceeds what this process may use,
+/// before anything is allocated or written.
+pub fn check_memory(estimate: &lucid_burn::memory::MemoryEstimate) -> anyhow::Result<()> {
+    let available = lucid_burn::memory::available().map_err(anyhow::Error::msg)?;
+    estimate.check(available).map_err(anyhow::Error::msg)
+}
+
 /// The checkpoint a resumed run continues from, or an error saying why there is none.
 pub fn checkpoint_to_resume(folder: &RunFolder) -> anyhow::Result<std::path::PathBuf> {
     let path = folder.checkpoint();

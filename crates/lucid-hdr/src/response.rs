@@ -97,6 +97,23 @@ impl ResponseCurve {
     }
 }
 
+/// Most pixels a Debevec–Malik recovery samples per channel: its normal equations are
+/// `(256 + N)²` doubles per channel, 150 MB at this bound.
+pub const MAX_DEBEVEC_SAMPLES: usize = 4096;
+
+/// Response recovery compares the codes one radiance gives at different exposures; with
+/// every exposure alike there is nothing to compare and the solution is arbitrary.
+fn require_distinct_times(stack: &ExposureStack) -> Result<(), HdrError> {
+    let t = stack.times();
+    if t.iter().all(|&x| x == t[0]) {
+        return Err(HdrError::Stack(format!(
+            "every frame has exposure time {}: response recovery needs exposures that differ (or use --method mertens, which needs no times)",
+            t[0]
+        )));
+    }
+    Ok(())
+}
+
 /// Debevec and Malik's recovery: per channel, the least-squares solution of
 /// `w(Z_ij)·(g(Z_ij) − ln E_i) = w(Z_ij)·ln Δt_j` over sampled pixels `i` and frames `j`,
 /// plus `λ·w(z)·g''(z) = 0` and `g(128) = 0`, solved through its normal equations by Cholesky
@@ -107,6 +124,17 @@ pub fn debevec_malik(stack: &ExposureStack, settings: DebevecSettings) -> Result
     }
     if !(settings.smoothness.is_finite() && settings.smoothness >= 0.0) {
         return Err(HdrError::Parameter(format!("smoothness λ must be finite and ≥ 0, got {}", settings.smoothness)));
+    }
+    require_distinct_times(stack)?;
+    // Debevec and Malik's condition: N·(P − 1) ≥ Z_max − Z_min observations fix the curve's
+    // 256 values; with fewer, the smoothness term alone extrapolates it to overflow.
+    let needed = 255usize.div_ceil(stack.len() - 1);
+    if settings.samples < needed || settings.samples > MAX_DEBEVEC_SAMPLES {
+        return Err(HdrError::Parameter(format!(
+            "{} samples per channel with {} exposures: need {needed}..={MAX_DEBEVEC_SAMPLES} (N·(P−1) ≥ 255 observations fix the 256 codes; the normal equations grow with N²)",
+            settings.samples,
+            stack.len()
+        )));
     }
     let mut curve = ResponseCurve { log_exposure: [[0.0; CODES]; 3] };
     let channels: Vec<Result<[f32; CODES], HdrError>> = {
@@ -192,6 +220,7 @@ pub fn robertson(stack: &ExposureStack, settings: RobertsonSettings) -> Result<R
     if stack.len() < 2 {
         return Err(HdrError::Stack("response recovery needs at least two exposures".into()));
     }
+    require_distinct_times(stack)?;
     let mut curve = ResponseCurve { log_exposure: [[0.0; CODES]; 3] };
     for c in 0..3 {
         curve.log_exposure[c] = robertson_channel(stack, c, settings);

@@ -141,6 +141,25 @@ fn bad_stacks_are_refused() {
     assert!(ExposureStack::new(&[img.clone(), img], &[1.0, -2.0]).is_err());
 }
 
+#[test]
+fn recovery_refuses_equal_times_and_too_few_samples() {
+    let same = stack(&[0.5, 0.5, 0.5]);
+    for err in [
+        debevec_malik(&same, DebevecSettings::default()).unwrap_err().to_string(),
+        robertson(&same, RobertsonSettings::default()).unwrap_err().to_string(),
+    ] {
+        assert!(err.contains("exposure time 0.5") && err.contains("differ"), "{err}");
+    }
+    // Three exposures: 128 samples give 256 observations, enough; 127 are not, and 0 gave
+    // radiance of 1e38 before.
+    let three = stack(&[0.25, 1.0, 4.0]);
+    assert!(debevec_malik(&three, DebevecSettings { samples: 128, ..Default::default() }).is_ok());
+    for samples in [0, 127, 100_000] {
+        let err = debevec_malik(&three, DebevecSettings { samples, ..Default::default() }).unwrap_err().to_string();
+        assert!(err.contains(&format!("{samples} samples")) && err.contains("need 128..=4096"), "{err}");
+    }
+}
+
 /// Fusion keeps detail that every single exposure clips: of a smooth scene over 3.5 decades,
 /// fewer values are black or white in the fused image than in the best frame.
 #[test]

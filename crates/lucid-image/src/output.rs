@@ -15,6 +15,12 @@ use crate::ImageError;
 /// Name of the lock file inside a locked folder.
 pub const LOCK_FILE: &str = ".lucid.lock";
 
+/// Whether a file name is one of [`OutputLock`]'s lock files (`.lucid.lock`, `.<name>.lock`),
+/// which a killed process leaves behind.
+pub fn is_lock_file(name: &str) -> bool {
+    name.starts_with('.') && name.ends_with(".lock")
+}
+
 /// An exclusive advisory lock, held until dropped.
 #[derive(Debug)]
 pub struct OutputLock {

@@ -71,21 +71,43 @@ impl ItmConfig {
         lucid_burn::config::parse_config(text, origin, Self::validate)
     }
 
+    /// The memory training with this configuration needs at its peak, with `pixels` pixels
+    /// of training pairs loaded (see [`lucid_burn::memory`]).
+    pub fn memory_estimate(&self, pixels: usize) -> lucid_burn::memory::MemoryEstimate {
+        use lucid_burn::memory::{MemoryEstimate, floats};
+        let (w, t) = (self.model.width as f64, &self.train);
+        let mut e = MemoryEstimate::new();
+        // The U-Net keeps ~14·width activations per pixel (less at the coarser levels, more
+        // with the skip concatenations), and the backward pass as many gradients again.
+        let batch_pixels = (t.batch * t.patch * t.patch) as f64;
+        e.add(
+            format!("activations (train.batch = {}, train.patch = {}, model.width = {})", t.batch, t.patch, w),
+            floats(3.0 * batch_pixels * (14.0 * w + 12.0)),
+        );
+        // Display, linear, truth and mask planes.
+        e.add("training pairs", floats(10.0 * pixels as f64));
+        e
+    }
+
     /// Checks every value's range.
     pub fn validate(&self) -> Result<(), String> {
         use lucid_burn::config::{non_negative, positive};
         let (m, t) = (&self.model, &self.train);
-        positive("model.width", m.width as f64)?;
+        if !(1..=256).contains(&m.width) {
+            return Err(format!("model.width must be in 1..=256, got {}", m.width));
+        }
         if !(m.mask_threshold > 0.0 && m.mask_threshold < 1.0) {
             return Err(format!("model.mask_threshold must be in (0, 1), got {}", m.mask_threshold));
         }
         positive("train.steps", t.steps as f64)?;
         non_negative("train.time_limit", t.time_limit)?;
         positive("train.learning_rate", t.learning_rate)?;
-        positive("train.batch", t.batch as f64)?;
+        if !(1..=1024).contains(&t.batch) {
+            return Err(format!("train.batch must be in 1..=1024, got {}", t.batch));
+        }
         positive("train.checkpoint_every", t.checkpoint_every as f64)?;
-        if t.patch < 8 || t.patch % 4 != 0 {
-            return Err(format!("train.patch must be a multiple of 4 and at least 8, got {}", t.patch));
+        if t.patch < 8 || t.patch > 1024 || !t.patch.is_multiple_of(4) {
+            return Err(format!("train.patch must be a multiple of 4 in 8..=1024, got {}", t.patch));
         }
         if !(0.0..=1.0).contains(&t.clipped_patches) {
             return Err(format!("train.clipped_patches must be in [0, 1], got {}", t.clipped_patches));

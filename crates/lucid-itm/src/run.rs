@@ -35,6 +35,10 @@ impl Trainable for ItmRun<'_> {
         &["learning_rate"]
     }
 
+    fn non_finite(&self) -> Option<String> {
+        lucid_burn::first_non_finite(&self.trainer.net)
+    }
+
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
         crate::checkpoint::save(path, &self.trainer, elapsed)
     }

@@ -95,6 +95,16 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     };
     let error_map =
         errors.map(|e| ErrorMap::from_bytes(e).ok_or_else(|| invalid(path, "malformed error map"))).transpose()?;
+    // The configuration sizes the model built before its parameters are read: a header that
+    // claims more than the file holds is damage, not a reason to allocate.
+    let layout = header.config.field.layout();
+    let needed = 4 * (layout.grid.entries * layout.grid.features + layout.mlp_params()) as u64;
+    if (model.len() as u64) < needed {
+        return Err(invalid(
+            path,
+            format!("model parameters: {} bytes, the configuration needs {needed}", model.len()),
+        ));
+    }
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))
         .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
     let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
@@ -139,15 +149,15 @@ mod tests {
         NerfTrainer::new(config, (Vec3::splat(-1.0), Vec3::splat(1.0)), 0.01, crate::backend::training_device())
     }
 
-    /// Rewrites the header section of a checkpoint's bytes.
-    fn with_header(bytes: &[u8], edit: impl Fn(&str) -> String) -> Vec<u8> {
-        let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
-        let header = edit(std::str::from_utf8(&bytes[20..20 + len]).unwrap());
-        let mut out = bytes[..12].to_vec();
-        out.extend((header.len() as u64).to_le_bytes());
-        out.extend(header.as_bytes());
-        out.extend(&bytes[20 + len..]);
-        out
+    /// Rewrites the header section of a checkpoint, as a valid container.
+    fn with_header(path: &Path, edit: impl Fn(&str) -> String) -> Vec<u8> {
+        let (value, sections) = lucid_burn::checkpoint::read_kind_sections(path, NERF_KIND).unwrap();
+        let header = edit(&serde_json::to_string_pretty(&value).unwrap());
+        let out = path.with_extension("edited");
+        let mut all: Vec<&[u8]> = vec![header.as_bytes()];
+        all.extend(sections.iter().map(Vec::as_slice));
+        lucid_burn::checkpoint::write_sections(&out, &all).unwrap();
+        std::fs::read(&out).unwrap()
     }
 
     #[test]
@@ -168,14 +178,14 @@ mod tests {
             std::fs::write(&p, bytes).unwrap();
             load(&p, &crate::backend::default_device()).err().expect("an error").to_string()
         };
-        let splat = with_header(&bytes, |h| h.replace("\"kind\": \"nerf\"", "\"kind\": \"splat\""));
+        let splat = with_header(&path, |h| h.replace("\"kind\": \"nerf\"", "\"kind\": \"splat\""));
         assert!(err(&splat).contains("holds a 'splat' model, expected 'nerf'"), "{}", err(&splat));
         let mut version = bytes.clone();
         version[8] = 9;
         assert!(err(&version).contains("version 9"), "{}", err(&version));
         assert!(err(&bytes[..bytes.len() - 10]).contains("truncated"), "{}", err(&bytes[..bytes.len() - 10]));
         assert!(err(b"hello").contains("not a Lucid checkpoint"));
-        let garbled = with_header(&bytes, |h| h.replace("\"step\"", "\"stop\""));
+        let garbled = with_header(&path, |h| h.replace("\"step\"", "\"stop\""));
         assert!(err(&garbled).contains("malformed header"), "{}", err(&garbled));
     }
 }

@@ -44,6 +44,10 @@ impl Trainable for NerfRun<'_> {
         &["rays", "samples", "learning_rate", "occupied_fraction"]
     }
 
+    fn non_finite(&self) -> Option<String> {
+        lucid_burn::first_non_finite(&self.trainer.model)
+    }
+
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
         crate::checkpoint::save(path, &self.trainer, elapsed)
     }

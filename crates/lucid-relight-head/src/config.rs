@@ -163,9 +163,13 @@ impl RelightConfig {
         use lucid_burn::config::{non_negative, positive};
         self.geometry.validate().map_err(|e| format!("geometry: {e}"))?;
         let (h, t) = (&self.head, &self.train);
-        positive("head.features", h.features as f64)?;
-        positive("head.hidden", h.hidden as f64)?;
-        positive("head.layers", h.layers as f64)?;
+        for (key, v, max) in
+            [("head.features", h.features, 256), ("head.hidden", h.hidden, 1024), ("head.layers", h.layers, 16)]
+        {
+            if !(1..=max).contains(&v) {
+                return Err(format!("{key} must be in 1..={max}, got {v}"));
+            }
+        }
         for (key, d) in [("head.light_degree", h.light_degree), ("head.view_degree", h.view_degree)] {
             if d > 3 {
                 return Err(format!("{key} must be 0, 1, 2 or 3, got {d}"));
@@ -175,7 +179,9 @@ impl RelightConfig {
         non_negative("train.time_limit", t.time_limit)?;
         positive("train.learning_rate", t.learning_rate)?;
         positive("train.feature_learning_rate", t.feature_learning_rate)?;
-        positive("train.lights_per_step", t.lights_per_step as f64)?;
+        if !(1..=64).contains(&t.lights_per_step) {
+            return Err(format!("train.lights_per_step must be in 1..=64, got {}", t.lights_per_step));
+        }
         positive("train.checkpoint_every", t.checkpoint_every as f64)?;
         positive("train.log_every", t.log_every as f64)?;
         Ok(())

@@ -40,6 +40,10 @@ impl Trainable for HeadRun<'_> {
         &["learning_rate"]
     }
 
+    fn non_finite(&self) -> Option<String> {
+        lucid_burn::first_non_finite(&self.trainer.head)
+    }
+
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
         crate::checkpoint::save(path, &self.trainer, self.lights, elapsed)
     }

@@ -8,11 +8,23 @@
 //! fused multiply-adds are enabled), so results are bit-identical either way. Whatever the
 //! closure calls must be inlined into it (`#[inline(always)]`) to be compiled for AVX2 too.
 
-/// Calls `f`, compiled for AVX2 (with the bit-count instructions) if this CPU has it.
+/// The environment variable that, set to `baseline`, keeps every kernel on the baseline
+/// build: for comparing the two builds bit for bit, and for timing the difference.
+pub const SIMD_VARIABLE: &str = "LUCID_SIMD";
+
+/// Whether [`SIMD_VARIABLE`] asks for the baseline build (read once per process).
+pub fn baseline_forced() -> bool {
+    static FORCED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *FORCED.get_or_init(|| std::env::var(SIMD_VARIABLE).is_ok_and(|v| v.eq_ignore_ascii_case("baseline")))
+}
+
+/// Calls `f`, compiled for AVX2 (with the bit-count instructions) if this CPU has it and
+/// [`SIMD_VARIABLE`] does not ask for the baseline.
 #[inline(always)]
 pub fn wide<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2")
+    if !baseline_forced()
+        && std::arch::is_x86_feature_detected!("avx2")
         && std::arch::is_x86_feature_detected!("popcnt")
         && std::arch::is_x86_feature_detected!("bmi1")
     {

@@ -176,3 +176,93 @@ fn single_instant_ngp_transforms_json_is_the_training_split() {
     assert_eq!(ds.frames(Split::Train).len(), 1);
     assert_eq!(ds.frames(Split::Train)[0].camera.camera_to_world, Mat4::IDENTITY);
 }
+
+/// Frames `r_0..r_n` in `train/`, each as a PNG and an EXR (as Lucid writes them), with
+/// extension-less `file_path`s and the given poses.
+fn extensionless_dataset(centres: &[Vec3]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("train")).unwrap();
+    let mut frames = Vec::new();
+    for (i, c) in centres.iter().enumerate() {
+        for ext in ["png", "exr"] {
+            write_image(dir.path().join(format!("train/r_{i}.{ext}")), &Image::black(8, 6)).unwrap();
+        }
+        // look_at normalises the offset, which overflows for the absurd centres.
+        let pose = if c.length() < 1e20 { look_at(*c, Vec3::ZERO, Vec3::Z) } else { Mat4::from_translation(*c) };
+        let m = pose.transpose().to_cols_array_2d();
+        frames.push(format!(r#"{{"file_path": "./train/r_{i}", "transform_matrix": {m:?}}}"#));
+    }
+    let json = format!(r#"{{"camera_angle_x": 0.7, "frames": [{}]}}"#, frames.join(","));
+    std::fs::write(dir.path().join("transforms_train.json"), json).unwrap();
+    dir
+}
+
+fn ring(n: usize) -> Vec<Vec3> {
+    (0..n).map(|i| Vec3::new((i as f32).cos() * 4.0, (i as f32).sin() * 4.0, 1.0)).collect()
+}
+
+#[test]
+fn extensionless_paths_take_one_extension_for_the_whole_dataset() {
+    let dir = extensionless_dataset(&ring(4));
+    let ds = Dataset::open(dir.path()).unwrap();
+    assert!(ds.frames(Split::Train).iter().all(|f| f.image_path.extension().unwrap() == "png"));
+    // A missing PNG is reported, not replaced by the EXR of the same stem.
+    std::fs::remove_file(dir.path().join("train/r_2.png")).unwrap();
+    let msg = open_err(dir.path());
+    assert!(msg.contains("frames[2].file_path") && msg.contains("r_2.png") && msg.contains("not found"), "{msg}");
+    // A dataset whose frames are all EXR reads them.
+    for i in [0, 1, 3] {
+        std::fs::remove_file(dir.path().join(format!("train/r_{i}.png"))).unwrap();
+    }
+    let ds = Dataset::open(dir.path()).unwrap();
+    assert!(ds.frames(Split::Train).iter().all(|f| f.image_path.extension().unwrap() == "exr"));
+}
+
+#[test]
+fn absurd_cameras_are_refused_at_load() {
+    // One camera a million units away among cameras 4 units from the centre.
+    let mut centres = ring(6);
+    centres[3] = Vec3::new(0.0, 1e6, 0.0);
+    let msg = open_err(extensionless_dataset(&centres).path());
+    assert!(msg.contains("frames[3].transform_matrix") && msg.contains("broken pose"), "{msg}");
+    // A translation beyond any capture's coordinates, even alone.
+    let msg = open_err(extensionless_dataset(&[Vec3::new(1e30, 0.0, 0.0)]).path());
+    assert!(msg.contains("frames[0].transform_matrix") && msg.contains("beyond"), "{msg}");
+    // Real spreads pass: a walk of cameras along a 100-unit path with a cluster at its start.
+    let mut walk: Vec<Vec3> = (0..20).map(|i| Vec3::new(i as f32 * 5.0, 10.0, 1.5)).collect();
+    walk.extend(ring(20));
+    if let Err(e) = Dataset::open(extensionless_dataset(&walk).path()) {
+        panic!("a walk is a real capture: {e}");
+    }
+
+    let cases: [(String, &[&str]); 3] = [
+        // 0.5·8 / tan(0.35) = 10.96, not 30.
+        (
+            format!(
+                r#"{{"camera_angle_x": 0.7, "fl_x": 30, "frames": [{{"file_path": "./train/r_0", "transform_matrix": {IDENTITY}}}]}}"#
+            ),
+            &["fl_x", "contradicts camera_angle_x", "10.96"],
+        ),
+        (
+            format!(
+                r#"{{"camera_angle_x": 0.7, "frames": [{{"file_path": "./train/r_0", "fl_x": 30, "camera_angle_x": 0.7, "transform_matrix": {IDENTITY}}}]}}"#
+            ),
+            &["frames[0].fl_x", "contradicts"],
+        ),
+        (
+            format!(r#"{{"fl_x": 0, "frames": [{{"file_path": "./train/r_0", "transform_matrix": {IDENTITY}}}]}}"#),
+            &["fl_x", "positive"],
+        ),
+    ];
+    for (json, needles) in cases {
+        let msg = open_err(dataset_with(&json).path());
+        for needle in needles {
+            assert!(msg.contains(needle), "{msg:?} lacks {needle:?}");
+        }
+    }
+    // Within 1% (an angle rounded by a converter) is the same camera.
+    let json = format!(
+        r#"{{"camera_angle_x": 0.7, "fl_x": 11.0, "frames": [{{"file_path": "./train/r_0", "transform_matrix": {IDENTITY}}}]}}"#
+    );
+    assert!(Dataset::open(dataset_with(&json).path()).is_ok());
+}

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 pub use lucid_burn::config::{Background, toml_error};
 use lucid_burn::config::{non_negative, parse_config, positive};
+use lucid_burn::memory::{MemoryEstimate, floats};
 
 /// Everything a splatting run needs.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -174,7 +175,33 @@ impl Default for DensifyConfig {
     }
 }
 
+/// The most Gaussians a cloud may start with or grow to: 20 million take ~30 GiB in training,
+/// beyond any machine this is meant for; the memory check refuses what the machine cannot
+/// hold well below it.
+pub const MAX_GAUSSIANS: usize = 20_000_000;
+
 impl SplatConfig {
+    /// The memory training with this configuration needs at its peak, starting from
+    /// `initial` Gaussians with `training_pixels` pixels of training images loaded, the
+    /// largest image having `largest_image` pixels (see [`lucid_burn::memory`]).
+    pub fn memory_estimate(&self, initial: usize, training_pixels: usize, largest_image: usize) -> MemoryEstimate {
+        let mut e = MemoryEstimate::new();
+        let (what, n) = if initial >= self.densify.max_gaussians {
+            (format!("{initial} initial Gaussians (init.random_points or the point cloud)"), initial)
+        } else {
+            (format!("Gaussians (densify.max_gaussians = {})", self.densify.max_gaussians), self.densify.max_gaussians)
+        };
+        // 59 parameters per Gaussian in all their copies (value, gradient, Adam's moments and
+        // burn's temporaries), projection and its gradients, tile lists and densification
+        // statistics. Measured: peak RSS grew by 2.07 KB per Gaussian from 100 k to 1 M random
+        // Gaussians (`/usr/bin/time -f %M lucid train splat … --steps 30`); 560 floats (2.2 KB)
+        // leave a margin.
+        e.add(what, floats(n as f64 * 560.0));
+        // RGBA floats per training pixel; a render, its gradients and the SSIM maps of one.
+        e.add("training images", floats(4.0 * training_pixels as f64 + 40.0 * largest_image as f64));
+        e
+    }
+
     /// Parses TOML text; `origin` names the file in messages.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, String> {
         parse_config(text, origin, Self::validate)
@@ -192,8 +219,8 @@ impl SplatConfig {
         if !(i.opacity.is_finite() && i.opacity > 0.0 && i.opacity < 1.0) {
             return Err(format!("init.opacity must be in (0, 1), got {}", i.opacity));
         }
-        if i.random_points == 0 {
-            return Err("init.random_points must be at least 1".into());
+        if !(1..=MAX_GAUSSIANS).contains(&i.random_points) {
+            return Err(format!("init.random_points must be in 1..={MAX_GAUSSIANS}, got {}", i.random_points));
         }
         let t = &self.train;
         if t.steps == 0 {
@@ -235,8 +262,8 @@ impl SplatConfig {
         non_negative("densify.min_opacity", d.min_opacity as f64)?;
         positive("densify.max_screen_size", d.max_screen_size as f64)?;
         positive("densify.max_world_size", d.max_world_size as f64)?;
-        if d.max_gaussians == 0 {
-            return Err("densify.max_gaussians must be at least 1".into());
+        if !(1..=MAX_GAUSSIANS).contains(&d.max_gaussians) {
+            return Err(format!("densify.max_gaussians must be in 1..={MAX_GAUSSIANS}, got {}", d.max_gaussians));
         }
         Ok(())
     }

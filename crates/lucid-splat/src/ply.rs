@@ -8,7 +8,7 @@
 //! Writing is binary little-endian `float`, written directly: the layout is fixed and it
 //! keeps multi-million-splat exports fast.
 
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use ply_rs_bw::parser::{Parser, Reader};
@@ -174,10 +174,9 @@ pub fn read_point_cloud(path: &Path) -> Result<Vec<(glam::Vec3, [f32; 3])>, PlyE
 /// Writes `cloud` as a binary 3DGS `.ply` (all 45 `f_rest`), atomically (a temporary file in
 /// the same folder, renamed into place).
 pub fn write_splat_ply(path: &Path, cloud: &SplatCloud) -> Result<(), PlyError> {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| err(path, format!("cannot write: {e}")))?;
-    {
-        let mut w = BufWriter::new(tmp.as_file());
+    // Through the one atomic writer of every Lucid output, so that the file gets the same
+    // permissions as the others (a named temporary file is private, 0600).
+    let written = lucid_image::write_atomically(path, |w| -> Result<(), lucid_image::ImageError> {
         let mut header = format!("ply\nformat binary_little_endian 1.0\nelement vertex {}\n", cloud.len());
         let mut props: Vec<String> = ["x", "y", "z", "nx", "ny", "nz"].map(String::from).to_vec();
         props.extend((0..3).map(|k| format!("f_dc_{k}")));
@@ -189,7 +188,7 @@ pub fn write_splat_ply(path: &Path, cloud: &SplatCloud) -> Result<(), PlyError> 
             header.push_str(&format!("property float {p}\n"));
         }
         header.push_str("end_header\n");
-        let io = |e: std::io::Error| err(path, format!("cannot write: {e}"));
+        let io = |e: std::io::Error| lucid_image::ImageError::io(path, e);
         w.write_all(header.as_bytes()).map_err(io)?;
         let mut row = Vec::with_capacity(4 * (VALUES + 3));
         for i in 0..cloud.len() {
@@ -209,10 +208,9 @@ pub fn write_splat_ply(path: &Path, cloud: &SplatCloud) -> Result<(), PlyError> 
             cloud.rotations[4 * i..4 * i + 4].iter().for_each(|&v| put(v));
             w.write_all(&row).map_err(io)?;
         }
-        w.flush().map_err(io)?;
-    }
-    tmp.persist(path).map_err(|e| err(path, format!("cannot write: {}", e.error)))?;
-    Ok(())
+        Ok(())
+    });
+    written.map_err(|e| err(path, format!("cannot write: {e}")))
 }
 
 #[cfg(test)]

@@ -55,6 +55,10 @@ impl Trainable for SplatRun<'_> {
         &["gaussians", "sh_degree", "position_lr"]
     }
 
+    fn non_finite(&self) -> Option<String> {
+        lucid_burn::first_non_finite(&self.trainer.model)
+    }
+
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
         crate::checkpoint::save(path, &self.trainer, elapsed)
     }

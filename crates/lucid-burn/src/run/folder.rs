@@ -55,7 +55,20 @@ pub struct Manifest {
 pub struct RunFolder {
     dir: PathBuf,
     previous: Option<Manifest>,
-    _lock: OutputLock,
+    lock: Option<OutputLock>,
+    /// This process made the folder: if the run fails before writing anything into it (a
+    /// bad configuration, an unreadable image), it is removed again rather than left empty.
+    created: bool,
+}
+
+impl Drop for RunFolder {
+    fn drop(&mut self) {
+        drop(self.lock.take());
+        if self.created {
+            // Fails, harmlessly, unless the folder is empty.
+            let _ = std::fs::remove_dir(&self.dir);
+        }
+    }
 }
 
 impl RunFolder {
@@ -66,6 +79,7 @@ impl RunFolder {
         if start == Start::Resume && !dir.is_dir() {
             return Err(folder_error(format!("nothing to resume: no such folder (no {CHECKPOINT})")));
         }
+        let created = !dir.exists();
         std::fs::create_dir_all(dir).map_err(|source| RunError::Io { path: dir.to_path_buf(), source })?;
         let lock = OutputLock::folder(dir).map_err(|e| RunError::Lock(Box::new(e)))?;
         let found: Vec<&str> = RUN_FILES.iter().copied().filter(|name| dir.join(name).exists()).collect();
@@ -116,7 +130,8 @@ impl RunFolder {
                 Some(_) => {}
             },
         }
-        Ok(Self { dir: dir.to_path_buf(), previous: if start == Start::Resume { previous } else { None }, _lock: lock })
+        let previous = if start == Start::Resume { previous } else { None };
+        Ok(Self { dir: dir.to_path_buf(), previous, lock: Some(lock), created })
     }
 
     /// The folder.
@@ -197,6 +212,23 @@ mod tests {
         drop(RunFolder::open(dir.path(), "nerf", Start::Overwrite).unwrap());
         // The run's files are gone; the user's are not.
         assert_eq!(snapshot(dir.path()), vec![("notes.txt".to_string(), b"mine".to_vec())]);
+    }
+
+    #[test]
+    fn a_folder_made_for_a_run_that_wrote_nothing_is_removed_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let new = dir.path().join("run");
+        drop(RunFolder::open(&new, "nerf", Start::New).unwrap());
+        assert!(!new.exists(), "a failed run leaves no empty folder");
+        let run = RunFolder::open(&new, "nerf", Start::New).unwrap();
+        run.write_manifest("nerf", Budget::Steps { steps: 1 }).unwrap();
+        drop(run);
+        assert!(new.join(MANIFEST).is_file());
+        // A folder the user made stays, empty or not.
+        let theirs = dir.path().join("theirs");
+        std::fs::create_dir(&theirs).unwrap();
+        drop(RunFolder::open(&theirs, "nerf", Start::New).unwrap());
+        assert!(theirs.is_dir());
     }
 
     #[test]

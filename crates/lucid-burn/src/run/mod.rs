@@ -62,6 +62,18 @@ pub enum RunError {
         /// That loss.
         loss: f32,
     },
+    /// A parameter stopped being finite while the loss still was (a splat cloud whose
+    /// Gaussians all went NaN renders only background, at a finite loss).
+    #[error(
+        "training diverged by step {step}: {what} holds NaN or infinite values; the last checkpoint before it is kept; try a lower learning rate"
+    )]
+    NonFinite {
+        /// The step at which it was found (checked at every log row and before every
+        /// checkpoint).
+        step: usize,
+        /// Which parameter.
+        what: String,
+    },
     /// The model or an observer failed.
     #[error("{context}: {source}")]
     Model {
@@ -96,6 +108,11 @@ pub trait Trainable {
 
     /// Names of the model's own CSV columns, after `step,seconds,loss,psnr`.
     fn log_columns(&self) -> &'static [&'static str];
+
+    /// The name of a parameter holding NaN or an infinity, if any ([`crate::first_non_finite`]
+    /// finds one in a burn module). The loop asks at every log row and before every
+    /// checkpoint, so no checkpoint ever holds one.
+    fn non_finite(&self) -> Option<String>;
 
     /// Saves everything needed to continue (atomically), with the training seconds so far.
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError>;
@@ -242,7 +259,15 @@ pub fn run<T: Trainable + ?Sized>(
     let mut phases: Vec<(&'static str, f64)> = Vec::new();
     let (mut loss_sum, mut psnr_sum, mut window) = (0.0f64, 0.0f64, 0usize);
     let stop_at = options.until.unwrap_or(usize::MAX);
+    let check = |model: &T| match model.non_finite() {
+        Some(what) => {
+            bar.clear();
+            Err(RunError::NonFinite { step: model.steps_taken(), what })
+        }
+        None => Ok(()),
+    };
     let save = |model: &T, elapsed: f64| -> Result<(), RunError> {
+        check(model)?;
         match &options.checkpoint {
             Some(path) => Ok(model.save(path, elapsed)?),
             None => Ok(()),
@@ -270,6 +295,7 @@ pub fn run<T: Trainable + ?Sized>(
         // The last step of the budget gets a row whatever its number (a time budget ends
         // anywhere); a stop at `until` does not, as if the run had been killed there.
         if step.is_multiple_of(options.log_every.max(1)) || budget.spent(step, elapsed) {
+            check(model)?;
             let (loss, psnr) = (loss_sum / window as f64, psnr_sum / window as f64);
             (loss_sum, psnr_sum, window) = (0.0, 0.0, 0);
             let psnr = psnr.is_finite().then_some(psnr);

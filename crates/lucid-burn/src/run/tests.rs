@@ -16,6 +16,10 @@ struct Toy {
     pause: Duration,
     /// The step whose loss is NaN.
     diverge_at: Option<usize>,
+    /// The step after which `unused` is NaN (the loss stays finite).
+    poison_at: Option<usize>,
+    /// A parameter the loss does not see, like a Gaussian culled from every view.
+    unused: f64,
     /// Schedule positions seen.
     progress: Vec<f64>,
     saves: usize,
@@ -28,6 +32,8 @@ impl Toy {
             step: 0,
             pause: Duration::from_millis(pause_ms),
             diverge_at: None,
+            poison_at: None,
+            unused: 0.0,
             progress: vec![],
             saves: 0,
         }
@@ -63,11 +69,18 @@ impl Trainable for Toy {
         if self.diverge_at == Some(self.step) {
             loss = f64::NAN;
         }
+        if self.poison_at == Some(self.step) {
+            self.unused = f64::NAN;
+        }
         StepReport { loss: loss as f32, psnr: None, columns: vec![lr], phases: vec![("update", 1e-6)] }
     }
 
     fn log_columns(&self) -> &'static [&'static str] {
         &["learning_rate"]
+    }
+
+    fn non_finite(&self) -> Option<String> {
+        self.w.iter().chain([&self.unused]).any(|w| !w.is_finite()).then(|| "w".to_string())
     }
 
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
@@ -88,6 +101,9 @@ impl Trainable for Counting {
     }
     fn log_columns(&self) -> &'static [&'static str] {
         self.0.log_columns()
+    }
+    fn non_finite(&self) -> Option<String> {
+        self.0.non_finite()
     }
     fn save(&self, path: &Path, elapsed: f64) -> Result<(), CheckpointError> {
         let n: usize = std::fs::read_to_string(path.with_extension("count")).map_or(0, |s| s.parse().unwrap());
@@ -220,6 +236,27 @@ fn a_diverging_run_fails_naming_the_step_and_keeps_the_last_good_checkpoint() {
     toy.diverge_at = Some(17);
     let err = run(&mut toy, &options(dir.path(), Budget::Steps { steps: 50 }), &mut NoObserver).unwrap_err();
     assert!(err.to_string().contains("diverged at step 17"), "{err}");
+    assert_eq!(Toy::load(&dir.path().join("checkpoint.lucid")).0.step, 10);
+}
+
+#[test]
+fn non_finite_parameters_stop_the_run_before_any_checkpoint_holds_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut toy = Toy::new(0);
+    toy.poison_at = Some(17);
+    let err = run(&mut toy, &options(dir.path(), Budget::Steps { steps: 50 }), &mut NoObserver).unwrap_err();
+    // Found at the next log row (every 5 steps).
+    assert!(err.to_string().contains("diverged by step 20: w holds NaN"), "{err}");
+    let (kept, _) = Toy::load(&dir.path().join("checkpoint.lucid"));
+    assert_eq!(kept.step, 10);
+    assert!(kept.w.iter().all(|w| w.is_finite()), "the kept checkpoint is finite");
+    // Poisoned just before a checkpoint is due: the checkpoint is not written.
+    let dir = tempfile::tempdir().unwrap();
+    let mut toy = Toy::new(0);
+    toy.poison_at = Some(20);
+    let options = RunOptions { log_every: 1000, ..options(dir.path(), Budget::Steps { steps: 50 }) };
+    let err = run(&mut toy, &options, &mut NoObserver).unwrap_err();
+    assert!(err.to_string().contains("step 20"), "{err}");
     assert_eq!(Toy::load(&dir.path().join("checkpoint.lucid")).0.step, 10);
 }
 

@@ -121,6 +121,13 @@ fn merge(args: HdrMergeArgs) -> anyhow::Result<()> {
         }
     };
     let seconds = start.elapsed().as_secs_f64();
+    if !image.is_finite() {
+        bail!(
+            "{}: the merge gave NaN or infinite radiance ({:?}); nothing written: check the exposure times and the frames",
+            args.output.display(),
+            args.method
+        );
+    }
     write_image(&args.output, &image)?;
     tracing::info!(
         "merged {} frames ({}x{}) with {:?} in {:.3} s -> {}",

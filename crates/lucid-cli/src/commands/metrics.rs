@@ -38,10 +38,11 @@ pub fn run(args: MetricsArgs) -> anyhow::Result<()> {
         MetricSpace::Linear => "linear",
     };
     if args.json {
-        let images: Vec<_> = results.iter().map(|(n, m)| json!({"name": n, "psnr": m.psnr, "ssim": m.ssim})).collect();
+        let images: Vec<_> =
+            results.iter().map(|(n, m)| json!({"name": n, "psnr": db(m.psnr), "ssim": m.ssim})).collect();
         let out = json!({
             "background": background, "space": space_name, "images": images,
-            "mean": {"count": summary.count, "psnr": summary.psnr, "ssim": summary.ssim},
+            "mean": {"count": summary.count, "psnr": db(summary.psnr), "ssim": summary.ssim},
         });
         println!("{}", serde_json::to_string_pretty(&out)?);
     } else {
@@ -53,6 +54,12 @@ pub fn run(args: MetricsArgs) -> anyhow::Result<()> {
         println!("(space {space_name}, background {background:?})");
     }
     Ok(())
+}
+
+/// A PSNR for JSON, which has no infinity: identical images score the string `"inf"`, so
+/// that a reader tells them from a missing value (`null`), which Lucid never writes.
+fn db(psnr: f64) -> serde_json::Value {
+    if psnr.is_finite() { json!(psnr) } else { json!("inf") }
 }
 
 /// Pairs each image in `a` with the image of the same stem in `b` (same extension preferred).

@@ -30,6 +30,8 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
         threshold.map(|t| load(&args.datasets, Split::Train, t)).transpose().context("loading training pairs")?;
     if let (Some(train), Some(config)) = (&early, &config) {
         check_patch(train, config.train.patch)?;
+        let pixels = train.iter().map(|i| i.width * i.height).sum();
+        training::check_memory(&config.memory_estimate(pixels))?;
     }
     let folder = RunFolder::open(&args.output, ITM_KIND, start)?;
     let device = lucid_burn::backend::training_device();

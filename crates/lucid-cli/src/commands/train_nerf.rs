@@ -28,6 +28,9 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
         }
     };
     let dataset = training::open_dataset(&args.dataset)?;
+    if let Some(config) = &config {
+        training::check_memory(&config.memory_estimate(training::training_pixels(&dataset).0))?;
+    }
     let folder = RunFolder::open(&args.output, NERF_KIND, start)?;
     let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     let device = lucid_nerf::backend::training_device();

@@ -27,6 +27,10 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
         }
     };
     let dataset = training::open_dataset(&args.dataset)?;
+    if let Some(config) = &config {
+        let (pixels, largest) = training::training_pixels(&dataset);
+        training::check_memory(&config.memory_estimate(config.init.random_points, pixels, largest))?;
+    }
     let folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
     let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     let device = lucid_burn::backend::training_device();

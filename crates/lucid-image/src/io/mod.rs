@@ -51,6 +51,18 @@ impl ImageFormat {
         matches!(self, Self::Exr | Self::Pfm | Self::Rgbe)
     }
 
+    /// Whether the format stores an alpha channel (EXR and PNG do; PFM, RGBE and JPEG do
+    /// not).
+    pub fn has_alpha(self) -> bool {
+        matches!(self, Self::Exr | Self::Png)
+    }
+
+    /// Whether the format stores NaN and infinities as such (EXR and PFM are IEEE floats;
+    /// RGBE's shared exponent and 8-bit codes cannot).
+    pub fn stores_non_finite(self) -> bool {
+        matches!(self, Self::Exr | Self::Pfm)
+    }
+
     /// A short human name.
     pub fn name(self) -> &'static str {
         match self {
@@ -107,12 +119,20 @@ pub fn read_image(path: impl AsRef<Path>) -> Result<Image, ImageError> {
         };
         return Err(ImageError::io(path, source));
     }
-    match format {
+    let image = match format {
         ImageFormat::Exr => exr_file::read(path),
         ImageFormat::Pfm => pfm::read_pfm(path),
         ImageFormat::Rgbe => rgbe::read(path),
         ImageFormat::Png | ImageFormat::Jpeg => ldr::read(path, format),
+    }?;
+    if image.width() == 0 || image.height() == 0 {
+        return Err(ImageError::malformed(
+            path,
+            format.name(),
+            format!("the image is {}x{}: it holds no pixels", image.width(), image.height()),
+        ));
     }
+    Ok(image)
 }
 
 /// Reads only the header of an image file and returns `(width, height)`.

@@ -52,6 +52,14 @@ pub enum FileMetricError {
     /// A file could not be read.
     #[error(transparent)]
     Read(#[from] crate::ImageError),
+    /// An image holds NaN or infinite values, which have no score.
+    #[error("{}: {count} values are NaN or infinite; such an image has no PSNR or SSIM", path.display())]
+    NonFinite {
+        /// The image.
+        path: std::path::PathBuf,
+        /// How many values.
+        count: usize,
+    },
     /// The images cannot be compared.
     #[error("comparing {} with {}: {source}", a.display(), b.display())]
     Compare {
@@ -71,8 +79,16 @@ pub fn compare_files(
     background: [f32; 3],
     space: MetricSpace,
 ) -> Result<ImageMetrics, FileMetricError> {
-    let ia = prepare_for_metrics(&crate::read_image(a)?, background, space);
-    let ib = prepare_for_metrics(&crate::read_image(b)?, background, space);
+    let read = |path: &std::path::Path| -> Result<Image, FileMetricError> {
+        let image = crate::read_image(path)?;
+        let count = image.pixels().iter().flatten().filter(|v| !v.is_finite()).count();
+        if count > 0 {
+            return Err(FileMetricError::NonFinite { path: path.to_path_buf(), count });
+        }
+        Ok(image)
+    };
+    let ia = prepare_for_metrics(&read(a)?, background, space);
+    let ib = prepare_for_metrics(&read(b)?, background, space);
     compare(&ia, &ib, None).map_err(|source| FileMetricError::Compare { a: a.into(), b: b.into(), source })
 }
 

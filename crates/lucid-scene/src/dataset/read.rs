@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 use serde_json::{Map, Value};
 
 use super::{Dataset, DatasetError, Frame, FrameExtras, SceneBounds, Split, SplitFrames};
@@ -23,45 +23,159 @@ pub(super) fn open(root: &Path) -> Result<Dataset, DatasetError> {
         };
         return Err(DatasetError::Io { path: root.to_path_buf(), source });
     }
-    let mut splits = Vec::new();
+    let mut files = Vec::new();
     for split in Split::ALL {
         let json = root.join(split.file_name());
         if json.is_file() {
-            splits.push(read_split(&json, split)?);
+            files.push(parse(&json, split)?);
         }
     }
-    if splits.is_empty() {
+    if files.is_empty() {
         let single = root.join("transforms.json");
         if !single.is_file() {
             return Err(DatasetError::NotADataset { path: root.to_path_buf() });
         }
-        splits.push(read_split(&single, Split::Train)?);
+        files.push(parse(&single, Split::Train)?);
     }
+    let extension = shared_extension(&files);
+    let splits: Vec<SplitFrames> = files.iter().map(|f| f.read(extension)).collect::<Result<_, _>>()?;
+    check_camera_centres(&splits)?;
     Ok(Dataset { root: root.to_path_buf(), splits })
 }
 
 /// Reads and checks one file; see [`Dataset::open`].
 pub(super) fn read_split(json: &Path, split: Split) -> Result<SplitFrames, DatasetError> {
+    let file = parse(json, split)?;
+    let frames = file.read(shared_extension(std::slice::from_ref(&file)))?;
+    check_camera_centres(std::slice::from_ref(&frames))?;
+    Ok(frames)
+}
+
+/// Largest magnitude of a pose entry: beyond it a `f32` resolves no better than a few
+/// hundredths of a unit, and no capture's coordinates reach it (re-centred ones certainly not).
+const MAX_POSE_ENTRY: f64 = 1e7;
+
+/// How many times farther from the median centre than the typical camera a camera may stand.
+const MAX_CENTRE_SPREAD: f32 = 1000.0;
+
+/// Refuses a camera standing absurdly far from the rest (a pose with a translation of 1e6
+/// among cameras a few units apart), which would otherwise stretch the scene's bounds and
+/// learning rates until training yields NaN. "Far" is measured against the median distance of
+/// the cameras from their per-axis median, so a few broken poses cannot hide themselves.
+fn check_camera_centres(splits: &[SplitFrames]) -> Result<(), DatasetError> {
+    let centres: Vec<Vec3> =
+        splits.iter().flat_map(|s| s.frames.iter().map(|f| f.camera.camera_to_world.w_axis.xyz())).collect();
+    if centres.len() < 3 {
+        return Ok(());
+    }
+    let median = |mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2]
+    };
+    let centre = Vec3::new(
+        median(centres.iter().map(|c| c.x).collect()),
+        median(centres.iter().map(|c| c.y).collect()),
+        median(centres.iter().map(|c| c.z).collect()),
+    );
+    // Cameras sharing one place (a fixed camera under changing lights) do not set the scale.
+    let spread: Vec<f32> = centres.iter().map(|c| c.distance(centre)).filter(|d| *d > 0.0).collect();
+    if spread.is_empty() {
+        return Ok(());
+    }
+    let typical = median(spread);
+    for s in splits {
+        for (i, f) in s.frames.iter().enumerate() {
+            let d = f.camera.camera_to_world.w_axis.xyz().distance(centre);
+            if d > MAX_CENTRE_SPREAD * typical {
+                return Err(DatasetError::Invalid {
+                    path: s.source.clone(),
+                    key: format!("frames[{i}].transform_matrix"),
+                    reason: format!(
+                        "the camera stands at {}, {d:.3e} from the cameras' median centre, while the typical camera is {typical:.3e} from it: a broken pose?",
+                        f.camera.camera_to_world.w_axis.xyz()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A transforms file, parsed but not yet checked.
+struct TransformsFile {
+    json: PathBuf,
+    split: Split,
+    value: Value,
+}
+
+fn parse(json: &Path, split: Split) -> Result<TransformsFile, DatasetError> {
     let text = std::fs::read_to_string(json).map_err(|source| DatasetError::Io { path: json.to_path_buf(), source })?;
     let value: Value =
         serde_json::from_str(&text).map_err(|source| DatasetError::Json { path: json.to_path_buf(), source })?;
-    let ctx = Context { json };
-    let root = value.as_object().ok_or_else(|| ctx.invalid("(top level)", "expected a JSON object"))?;
-    let frames_value = root.get("frames").ok_or_else(|| ctx.invalid("frames", "missing"))?;
-    let frames_list = frames_value.as_array().ok_or_else(|| ctx.invalid("frames", "expected an array"))?;
-    let base = json.parent().unwrap_or(Path::new("."));
+    Ok(TransformsFile { json: json.to_path_buf(), split, value })
+}
 
-    let mut frames = Vec::with_capacity(frames_list.len());
-    for (i, frame_value) in frames_list.iter().enumerate() {
-        let key = format!("frames[{i}]");
-        let frame = frame_value.as_object().ok_or_else(|| ctx.invalid(&key, "expected an object"))?;
-        frames.push(ctx.read_frame(base, root, frame, &key)?);
+impl TransformsFile {
+    fn base(&self) -> &Path {
+        self.json.parent().unwrap_or(Path::new("."))
     }
-    Ok(SplitFrames { split, source: json.to_path_buf(), frames, bounds: ctx.bounds(root)? })
+
+    /// The `file_path`s that name no file as written, resolved against the file's folder.
+    fn extensionless_paths(&self) -> impl Iterator<Item = PathBuf> + '_ {
+        let frames = self.value.get("frames").and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[]);
+        frames.iter().filter_map(|f| f.get("file_path")?.as_str()).map(|p| self.base().join(p)).filter(|p| !p.is_file())
+    }
+
+    fn read(&self, extension: Option<&'static str>) -> Result<SplitFrames, DatasetError> {
+        let json = self.json.as_path();
+        let ctx = Context { json, extension };
+        let root = self.value.as_object().ok_or_else(|| ctx.invalid("(top level)", "expected a JSON object"))?;
+        let frames_value = root.get("frames").ok_or_else(|| ctx.invalid("frames", "missing"))?;
+        let frames_list = frames_value.as_array().ok_or_else(|| ctx.invalid("frames", "expected an array"))?;
+        let mut frames = Vec::with_capacity(frames_list.len());
+        for (i, frame_value) in frames_list.iter().enumerate() {
+            let key = format!("frames[{i}]");
+            let frame = frame_value.as_object().ok_or_else(|| ctx.invalid(&key, "expected an object"))?;
+            frames.push(ctx.read_frame(self.base(), root, frame, &key)?);
+        }
+        Ok(SplitFrames { split: self.split, source: json.to_path_buf(), frames, bounds: ctx.bounds(root)? })
+    }
+}
+
+/// `path` with `.ext` appended (not replacing what follows a dot in the stem).
+fn with_extension(path: &Path, ext: &str) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+/// The one extension that the dataset's extension-less `file_path`s take: the first of
+/// [`IMAGE_EXTENSIONS`] that at least half of them have, else the one most of them have.
+/// Chosen once, so that a frame whose image is missing is reported as missing instead of
+/// quietly reading another file of the same stem (an `.exr` beside a missing `.png`).
+fn shared_extension(files: &[TransformsFile]) -> Option<&'static str> {
+    let stems: Vec<PathBuf> = files.iter().flat_map(TransformsFile::extensionless_paths).collect();
+    if stems.is_empty() {
+        return None;
+    }
+    let mut best: Option<(&'static str, usize)> = None;
+    for ext in IMAGE_EXTENSIONS {
+        let found = stems.iter().filter(|s| with_extension(s, ext).is_file()).count();
+        if 2 * found >= stems.len() {
+            return Some(ext);
+        }
+        if found > best.map_or(0, |b| b.1) {
+            best = Some((ext, found));
+        }
+    }
+    best.map(|b| b.0)
 }
 
 struct Context<'a> {
     json: &'a Path,
+    /// What extension-less `file_path`s take ([`shared_extension`]).
+    extension: Option<&'static str>,
 }
 
 impl Context<'_> {
@@ -143,8 +257,7 @@ impl Context<'_> {
             .as_str()
             .ok_or_else(|| self.invalid(&path_key, "expected a string"))?
             .to_string();
-        let image_path = resolve_image(base, &file_path)
-            .ok_or_else(|| self.invalid(&path_key, format!("image {:?} not found", base.join(&file_path))))?;
+        let image_path = self.resolve_image(base, &file_path).map_err(|reason| self.invalid(&path_key, reason))?;
         let pose = self.matrix(frame, &format!("{key}.transform_matrix"))?;
         let intrinsics = self.intrinsics(root, frame, key, &image_path)?;
         let extras = FrameExtras {
@@ -168,6 +281,26 @@ impl Context<'_> {
             return Err(self.invalid(&format!("{key}.aperture_radius"), "must not be negative"));
         }
         Ok(Frame { file_path, image_path, camera: PinholeCamera::new(intrinsics, pose), extras })
+    }
+
+    /// The image a `file_path` names: as written if that is a file, else with the dataset's
+    /// extension appended.
+    fn resolve_image(&self, base: &Path, file_path: &str) -> Result<PathBuf, String> {
+        let direct = base.join(file_path);
+        if direct.is_file() {
+            return Ok(direct);
+        }
+        match self.extension {
+            Some(ext) => {
+                let path = with_extension(&direct, ext);
+                if path.is_file() {
+                    Ok(path)
+                } else {
+                    Err(format!("image {} not found (the other frames' images are .{ext} files)", path.display()))
+                }
+            }
+            None => Err(format!("image {} not found, with or without an image extension", direct.display())),
+        }
     }
 
     fn extra_path(
@@ -207,6 +340,14 @@ impl Context<'_> {
                 if !x.is_finite() {
                     return Err(self.invalid(key, format!("entry [{r}][{c}] is not finite")));
                 }
+                if x.abs() > MAX_POSE_ENTRY {
+                    return Err(self.invalid(
+                        key,
+                        format!(
+                            "entry [{r}][{c}] = {x:e} is beyond ±{MAX_POSE_ENTRY:e}; re-centre and scale the poses"
+                        ),
+                    ));
+                }
                 m[r][c] = x as f32;
             }
         }
@@ -219,6 +360,35 @@ impl Context<'_> {
             return Err(self.invalid(key, "the rotation part is singular"));
         }
         Ok(pose)
+    }
+
+    /// A focal length and a field of view given side by side (at one level: the file's or a
+    /// frame's) must describe the same camera, within 1% (converters round the angle).
+    fn focal_agrees(&self, obj: &Map<String, Value>, focal: &str, angle: &str, size: u32) -> Result<(), DatasetError> {
+        let (Some(f), Some(a)) = (self.positive(obj, focal, focal)?, self.positive(obj, angle, angle)?) else {
+            return Ok(());
+        };
+        if a >= std::f32::consts::PI {
+            return Ok(());
+        }
+        let implied = 0.5 * size as f32 / (0.5 * a).tan();
+        if (f - implied).abs() > 0.01 * implied {
+            return Err(self.invalid(
+                focal,
+                format!("{f} contradicts {angle} = {a} rad, which gives {implied:.2} for {size} pixels"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// An error about a frame's key, named inside that frame.
+    fn prefixed(&self, e: DatasetError, frame_key: &str) -> DatasetError {
+        match e {
+            DatasetError::Invalid { path, key, reason } => {
+                DatasetError::Invalid { path, key: format!("{frame_key}.{key}"), reason }
+            }
+            other => other,
+        }
     }
 
     /// Intrinsics from the frame's own keys, else the file's, else the image size.
@@ -255,6 +425,10 @@ impl Context<'_> {
                 format!("image {} is {iw}x{ih} but the transforms say {w}x{h}", image_path.display()),
             ));
         }
+        self.focal_agrees(root, "fl_x", "camera_angle_x", w)?;
+        self.focal_agrees(root, "fl_y", "camera_angle_y", h)?;
+        self.focal_agrees(frame, "fl_x", "camera_angle_x", w).map_err(|e| self.prefixed(e, key))?;
+        self.focal_agrees(frame, "fl_y", "camera_angle_y", h).map_err(|e| self.prefixed(e, key))?;
         let fx = match (pick("fl_x")?, pick("camera_angle_x")?) {
             (Some(f), _) => f,
             (None, Some(angle)) if angle < std::f32::consts::PI => 0.5 * w as f32 / (0.5 * angle).tan(),
@@ -271,14 +445,4 @@ impl Context<'_> {
         let cy = pick("cy")?.unwrap_or(0.5 * h as f32);
         Ok(Intrinsics { width: w, height: h, fx, fy, cx, cy })
     }
-}
-
-/// The image a `file_path` names: as written if it has an extension and exists, else with
-/// each of [`IMAGE_EXTENSIONS`] appended.
-fn resolve_image(base: &Path, file_path: &str) -> Option<PathBuf> {
-    let direct = base.join(file_path);
-    if direct.is_file() {
-        return Some(direct);
-    }
-    IMAGE_EXTENSIONS.iter().map(|ext| base.join(format!("{file_path}.{ext}"))).find(|p| p.is_file())
 }

@@ -3,6 +3,8 @@
 
 mod rig_file;
 
+use std::path::Path;
+
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_datasets_gen::writer::DatasetSpec;
@@ -41,6 +43,34 @@ struct DatasetRecord<'a> {
     lights: Option<usize>,
     light_irradiance: Option<f32>,
     held_out_lights: Option<usize>,
+}
+
+/// `gen` writes only into a missing or empty folder, or one holding a dataset it made (its
+/// `dataset.toml`): a dataset from elsewhere (a Blender set, a capture) would otherwise have
+/// its transforms files rewritten under it.
+fn refuse_foreign_folder(dir: &Path) -> anyhow::Result<()> {
+    if dir.join("dataset.toml").is_file() {
+        return Ok(());
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        // Missing (created below) or not a folder (creating it names the problem).
+        return Ok(());
+    };
+    let mut found: Vec<String> = entries
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !lucid_image::output::is_lock_file(n))
+        .collect();
+    if found.is_empty() {
+        return Ok(());
+    }
+    found.sort();
+    let shown = found.iter().take(4).cloned().collect::<Vec<_>>().join(", ");
+    let more = if found.len() > 4 { format!(" and {} more", found.len() - 4) } else { String::new() };
+    bail!(
+        "{}: holds files that lucid gen did not write ({shown}{more}; no dataset.toml); gen writes only into a new or empty folder or one it made, and leaves this one untouched: choose another output",
+        dir.display()
+    )
 }
 
 pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
@@ -179,6 +209,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     // dataset.toml first: it pins the settings, so a resumed or sharded run into the same
     // folder cannot mix frames made with different ones.
     let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
+    refuse_foreign_folder(&args.output)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("{}: cannot create", args.output.display()))?;
     // One writer per folder; the shards of a sharded run each lock only their own share.
     let _lock = match args.shard {
