@@ -19,10 +19,14 @@ fn bench_all_quick_writes_results_and_a_report() {
         assert!(html.contains(&format!("<h2>{name}</h2>")), "{name} section");
     }
     // The table shows the numbers of the JSON.
-    let splat = &results[2];
-    let psnr = splat["final"]["psnr"].as_f64().unwrap();
-    assert!(psnr > 15.0, "{psnr}");
-    assert!(html.contains(&format!("final held-out PSNR {psnr:.2} dB")));
+    // Measured 25.58 dB (NeRF) and 26.51 dB (3DGS) on this 2-core machine; the quick benches
+    // train for seconds, not steps, so the floors leave 2 dB for a slower or busier machine.
+    for (k, name, floor) in [(1, "nerf", 23.5), (2, "splat", 24.5)] {
+        let psnr = results[k]["final"]["psnr"].as_f64().unwrap();
+        println!("{name}: final held-out PSNR {psnr:.2} dB");
+        assert!(psnr > floor, "{name}: {psnr} dB");
+        assert!(html.contains(&format!("final held-out PSNR {psnr:.2} dB")), "{name}");
+    }
     let rays = results[0]["rays"].as_u64().unwrap();
     assert!(html.contains(&format!("<td>{rays}</td>")), "trace rays {rays}");
 }

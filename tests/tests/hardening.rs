@@ -69,7 +69,8 @@ fn unwritable_outputs_are_clear_errors_with_nothing_left() {
     }
 }
 
-/// Kills `args` once `ready` holds (or after `limit`), then returns.
+/// Kills `args` once `ready` holds (or after `limit`), and asserts that it was still running
+/// when killed: a process that finished first would make a resume test pass untested.
 fn kill_when(d: &Path, args: &[&str], ready: impl Fn() -> bool, limit: Duration) {
     let mut child = Command::new(lucid_bin())
         .args(args)
@@ -86,8 +87,10 @@ fn kill_when(d: &Path, args: &[&str], ready: impl Fn() -> bool, limit: Duration)
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let _ = child.kill();
-    let _ = child.wait();
+    assert!(child.try_wait().expect("waitable").is_none(), "{args:?} finished before it could be killed");
+    child.kill().expect("killable");
+    let status = child.wait().expect("waitable");
+    assert!(!status.success(), "{args:?} was killed, not finished: {status}");
 }
 
 /// A `gen` killed part-way keeps its finished frames, and running it again completes the set
@@ -99,6 +102,7 @@ fn killed_generation_resumes() {
     let args = ["gen", "object", "-o", "ds", "--views", "12,0,4", "--res", "48", "--spp", "64", "-q"];
     let some_done = || std::fs::read_dir(d.join("ds/train")).map(|r| r.count() >= 6).unwrap_or(false);
     kill_when(d, &args, some_done, Duration::from_secs(60));
+    assert!(!d.join("ds/transforms_train.json").exists(), "killed before the dataset was complete");
     let run = lucid_in(d, &args[..args.len() - 1]).success();
     assert!(run.stderr.contains("already there") || run.stdout.contains("already there"), "{}", run.stderr);
     assert!(d.join("ds/transforms_train.json").is_file() && d.join("ds/transforms_test.json").is_file());

@@ -25,11 +25,12 @@ fn demo_generates_a_dataset_that_info_reads() {
     assert!(nearest < 35.0 && nearest > 5.0, "nearest-view PSNR {nearest}");
     let nerf = &metrics["metrics"]["nerf"];
     assert_eq!(nerf["count"], 3);
-    assert!(nerf["psnr"].as_f64().unwrap() > 5.0, "{nerf}");
+    // Measured 16.98 dB after 40 steps; an untrained field (1 step) scores 8.39.
+    assert!(nerf["psnr"].as_f64().unwrap() > 16.0, "{nerf}");
     let splat = &metrics["metrics"]["splat"];
     assert_eq!(splat["count"], 3);
-    // Measured 26.84 dB after 300 steps against 22.37 dB for the nearest training view.
-    assert!(splat["psnr"].as_f64().unwrap() > nearest, "{splat} vs nearest {nearest}");
+    // Measured 27.32 dB after 300 steps against 22.54 dB for the nearest training view.
+    assert!(splat["psnr"].as_f64().unwrap() > 26.5, "{splat} vs nearest {nearest}");
 
     // The report: both models' numbers, a curve plot, and every image it shows on disk.
     let html = std::fs::read_to_string(dir.path().join("demo/report.html")).unwrap();

@@ -8,8 +8,8 @@ fn clipped_log_psnr(metrics: &serde_json::Value, method: &str) -> f64 {
     metrics[method]["log_psnr_clipped"].as_f64().expect("a number")
 }
 
-/// Measured: after 150 steps the network's log-PSNR over clipped pixels is about 6 dB above
-/// the analytic baseline's (target: 2 dB); the floor asserts the target.
+/// After 150 steps the network's log-PSNR over clipped pixels is 6.4 dB above the analytic
+/// baseline's (target: 2 dB); the floors assert the target and the measured level.
 #[test]
 fn short_training_beats_the_analytic_baseline_on_held_out_views() {
     let dir = temp_dir();
@@ -32,10 +32,15 @@ fn short_training_beats_the_analytic_baseline_on_held_out_views() {
     let (net, base) = (clipped_log_psnr(&metrics, "network"), clipped_log_psnr(&metrics, "analytic"));
     println!("clipped log-PSNR: network {net:.2} dB, analytic {base:.2} dB");
     assert!(net >= base + 2.0, "network {net} vs analytic {base}");
+    // Measured 30.19 dB (analytic 23.77); steps, not seconds, so only the CPU's SIMD width
+    // can move it.
+    assert!(net > 29.0, "network {net}");
     // `lucid eval` on the checkpoint scores one dataset the same way.
     let eval = lucid_in(d, &["eval", "itm/checkpoint.lucid", "br_studio", "--json", "-o", "ev"]).success();
     let again = eval.json();
-    assert!(again["network"]["log_psnr_clipped"].as_f64().unwrap().is_finite());
+    let (net_one, base_one) = (clipped_log_psnr(&again, "network"), clipped_log_psnr(&again, "analytic"));
+    println!("br_studio alone: network {net_one:.2} dB, analytic {base_one:.2} dB");
+    assert!(net_one >= base_one + 2.0, "one dataset: network {net_one} vs analytic {base_one}");
     assert!(d.join("ev/000_network.exr").is_file() && d.join("ev/000_truth.exr").is_file());
 }
 

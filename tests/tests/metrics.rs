@@ -1,7 +1,6 @@
 //! `lucid metrics`: single pairs, folders, options and bad input.
 
-use lucid_image::metrics::{MetricSpace, compare, prepare_for_metrics};
-use lucid_image::{Image, read_image, write_image};
+use lucid_image::{Image, write_image};
 use lucid_tests::{lucid_in, temp_dir};
 
 fn pattern(seed: u32, w: usize, h: usize) -> Image {
@@ -11,25 +10,46 @@ fn pattern(seed: u32, w: usize, h: usize) -> Image {
     })
 }
 
-#[test]
-fn pair_metrics_match_the_library_in_srgb_space_over_white() {
-    let dir = temp_dir();
-    write_image(dir.path().join("a.png"), &pattern(1, 24, 20)).unwrap();
-    write_image(dir.path().join("b.png"), &pattern(2, 24, 20)).unwrap();
-    let out = lucid_in(dir.path(), &["metrics", "a.png", "b.png", "--json"]).success().json();
-    let prep = |p: &str| prepare_for_metrics(&read_image(dir.path().join(p)).unwrap(), [1.0; 3], MetricSpace::Srgb);
-    let expected = compare(&prep("a.png"), &prep("b.png"), None).unwrap();
-    assert!((out["mean"]["psnr"].as_f64().unwrap() - expected.psnr).abs() < 1e-9);
-    assert!((out["mean"]["ssim"].as_f64().unwrap() - expected.ssim).abs() < 1e-9);
-    assert_eq!(out["space"], "srgb");
+/// An image of one 8-bit sRGB code everywhere.
+fn flat(code: u8, alpha: f32) -> Image {
+    let v = lucid_image::color::srgb_decode(code as f32 / 255.0);
+    Image::filled(24, 20, [v, v, v, alpha])
+}
 
-    // A black background changes the half-transparent columns, hence the numbers.
-    let black =
-        lucid_in(dir.path(), &["metrics", "a.png", "b.png", "--json", "--background", "black"]).success().json();
-    assert_ne!(black["mean"]["psnr"], out["mean"]["psnr"]);
+/// Flat images whose codes differ by 10 have, in sRGB space, PSNR 20·log10(255/10) and the
+/// SSIM of two constants, (2μₐμᵦ + C₁)/(μₐ² + μᵦ² + C₁) with C₁ = 0.01²: closed forms, not
+/// the library the command calls.
+#[test]
+fn pair_metrics_match_closed_forms_in_srgb_space_over_white() {
+    let dir = temp_dir();
+    write_image(dir.path().join("a.png"), &flat(100, 1.0)).unwrap();
+    write_image(dir.path().join("b.png"), &flat(110, 1.0)).unwrap();
+    let out = lucid_in(dir.path(), &["metrics", "a.png", "b.png", "--json"]).success().json();
+    let psnr = 20.0 * (255.0f64 / 10.0).log10();
+    let (ma, mb, c1) = (100.0 / 255.0, 110.0 / 255.0, 1e-4);
+    let ssim = (2.0 * ma * mb + c1) / (ma * ma + mb * mb + c1);
+    let got = (out["mean"]["psnr"].as_f64().unwrap(), out["mean"]["ssim"].as_f64().unwrap());
+    assert!((got.0 - psnr).abs() < 1e-3, "PSNR {} vs {psnr}", got.0);
+    assert!((got.1 - ssim).abs() < 1e-5, "SSIM {} vs {ssim}", got.1);
+    assert_eq!(out["space"], "srgb");
     // The text table prints the same mean.
     let text = lucid_in(dir.path(), &["metrics", "a.png", "b.png"]).success().stdout;
-    assert!(text.contains(&format!("{:.3}", expected.psnr)), "{text}");
+    assert!(text.contains(&format!("{psnr:.3}")), "{text}");
+
+    // Half-transparent: as the NeRF literature scores the Blender set, the 8-bit sRGB values
+    // are composited, y·α + bg·(1 − α), with α stored as 128/255; over black the difference
+    // is the same as over white, and half of the opaque one.
+    write_image(dir.path().join("ha.png"), &flat(100, 0.5)).unwrap();
+    write_image(dir.path().join("hb.png"), &flat(110, 0.5)).unwrap();
+    let alpha = 128.0 / 255.0;
+    let over = |bg: f64, code: u8| code as f64 / 255.0 * alpha + bg * (1.0 - alpha);
+    for (bg, name) in [(1.0, "white"), (0.0, "black")] {
+        let want = -20.0 * (over(bg, 110) - over(bg, 100)).abs().log10();
+        let out =
+            lucid_in(dir.path(), &["metrics", "ha.png", "hb.png", "--json", "--background", name]).success().json();
+        let got = out["mean"]["psnr"].as_f64().unwrap();
+        assert!((got - want).abs() < 1e-3, "over {name}: {got} vs {want}");
+    }
 }
 
 #[test]

@@ -33,6 +33,12 @@ fn blur(x: Tensor<4>, device: &Device) -> Tensor<4> {
 
 /// Mean SSIM of two `H×W×C` images.
 pub fn ssim(a: Tensor<3>, b: Tensor<3>) -> Tensor<1> {
+    ssim_map(a, b).mean()
+}
+
+/// The SSIM of two `H×W×C` images at every pixel and channel, `1×C×H×W` (zero padded: the
+/// border's windows reach outside the image).
+pub fn ssim_map(a: Tensor<3>, b: Tensor<3>) -> Tensor<4> {
     let device = a.device();
     let to_nchw = |t: Tensor<3>| t.permute([2, 0, 1]).unsqueeze_dim::<4>(0);
     let (a, b) = (to_nchw(a), to_nchw(b));
@@ -44,7 +50,7 @@ pub fn ssim(a: Tensor<3>, b: Tensor<3>) -> Tensor<1> {
     let cov = blur(a * b, &device) - mu_ab.clone();
     let num = (mu_ab * 2.0 + C1) * (cov * 2.0 + C2);
     let den = (mu_a2 + mu_b2 + C1) * (var_a + var_b + C2);
-    (num / den).mean()
+    num / den
 }
 
 /// `(1 − λ)·mean|a − b| + λ·(1 − SSIM(a, b))` and, for logs, the MSE, of `H×W×3` images.
@@ -74,5 +80,42 @@ mod tests {
         let b = Tensor::<3>::from_data(TensorData::new(noisy, [24, 20, 3]), &device);
         let s = ssim(a, b).into_data().try_to_vec::<f32>().unwrap()[0];
         assert!(s < 0.95 && s > 0.0, "{s}");
+    }
+
+    /// Away from the border, where no window reaches the zero padding, the loss's SSIM map is
+    /// the metric's, which matches scikit-image (`lucid_image::metrics`, tested against its
+    /// values): same window, constants and formula.
+    #[test]
+    fn the_loss_ssim_is_the_metric_ssim_inside_the_border() {
+        let device = lucid_burn::backend::default_device();
+        let (w, h) = (30usize, 26usize);
+        let value = |k: usize, salt: usize| ((k * 37 + salt * 11) % 101) as f32 / 101.0;
+        let image = |salt: usize| {
+            lucid_image::Image::from_fn(w, h, |x, y| {
+                let k = 3 * (y * w + x);
+                let smooth = 0.5 + 0.4 * ((x as f32 * 0.3).sin() * (y as f32 * 0.2).cos());
+                let v = |c: usize| 0.5 * smooth + 0.5 * value(k + c, salt);
+                [v(0), v(1), v(2), 1.0]
+            })
+        };
+        let (ia, ib) = (image(1), image(2));
+        let tensor = |i: &lucid_image::Image| {
+            let v: Vec<f32> = i.pixels().iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+            Tensor::<3>::from_data(TensorData::new(v, [h, w, 3]), &device)
+        };
+        let map = ssim_map(tensor(&ia), tensor(&ib)).into_data().try_to_vec::<f32>().unwrap();
+        let r = WINDOW / 2;
+        let mut sum = 0.0f64;
+        for c in 0..3 {
+            for y in r..h - r {
+                for x in r..w - r {
+                    sum += map[(c * h + y) * w + x] as f64;
+                }
+            }
+        }
+        let inside = sum / (3 * (h - 2 * r) * (w - 2 * r)) as f64;
+        let metric = lucid_image::metrics::ssim(&ia, &ib, None).unwrap();
+        assert!(metric > 0.2 && metric < 0.9, "a pair neither alike nor unrelated: {metric}");
+        assert!((inside - metric).abs() < 1e-5, "loss {inside} vs metric {metric}");
     }
 }
