@@ -8,13 +8,14 @@ fn clipped_log_psnr(metrics: &serde_json::Value, method: &str) -> f64 {
     metrics[method]["log_psnr_clipped"].as_f64().expect("a number")
 }
 
-/// After 150 steps the network's log-PSNR over clipped pixels is 6.4 dB above the analytic
-/// baseline's (target: 2 dB); the floors assert the target and the measured level.
+/// Trained on two scenes, scored on their held-out views and on a third scene it never saw,
+/// against the strongest analytic baseline: the highlight boost (0, the inverse response
+/// alone, included) that is best on the training views.
 #[test]
-fn short_training_beats_the_analytic_baseline_on_held_out_views() {
+fn short_training_beats_the_strongest_analytic_baseline_on_an_unseen_scene() {
     let dir = temp_dir();
     let d = dir.path();
-    for scene in ["studio", "spheres"] {
+    for scene in ["studio", "spheres", "object"] {
         let out = format!("br_{scene}");
         lucid_in(
             d,
@@ -30,17 +31,21 @@ fn short_training_beats_the_analytic_baseline_on_held_out_views() {
     let metrics: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("itm/eval_test/metrics.json")).unwrap()).unwrap();
     let (net, base) = (clipped_log_psnr(&metrics, "network"), clipped_log_psnr(&metrics, "analytic"));
-    println!("clipped log-PSNR: network {net:.2} dB, analytic {base:.2} dB");
-    assert!(net >= base + 2.0, "network {net} vs analytic {base}");
-    // Measured 30.19 dB (analytic 23.77); steps, not seconds, so only the CPU's SIMD width
-    // can move it.
-    assert!(net > 29.0, "network {net}");
-    // `lucid eval` on the checkpoint scores one dataset the same way.
-    let eval = lucid_in(d, &["eval", "itm/checkpoint.lucid", "br_studio", "--json", "-o", "ev"]).success();
-    let again = eval.json();
-    let (net_one, base_one) = (clipped_log_psnr(&again, "network"), clipped_log_psnr(&again, "analytic"));
-    println!("br_studio alone: network {net_one:.2} dB, analytic {base_one:.2} dB");
-    assert!(net_one >= base_one + 2.0, "one dataset: network {net_one} vs analytic {base_one}");
+    let plain = clipped_log_psnr(&metrics, "inverse_response");
+    println!("seen scenes: network {net:.2} dB, analytic {base:.2} dB, inverse response {plain:.2} dB");
+    // Measured after 150 steps: network 30.19 dB, analytic (1 EV, chosen on the training
+    // views) 29.79, inverse response 25.28; steps, not seconds, so only the CPU's SIMD width
+    // can move them. Against the strongest baseline the network's lead is small: 0.4 dB here,
+    // 1.2 dB after 600 steps.
+    assert!(net >= base + 0.3, "network {net} vs analytic {base}");
+    assert!(net > 29.5, "network {net}");
+    // `lucid eval` on a scene the network never saw.
+    let eval = lucid_in(d, &["eval", "itm/checkpoint.lucid", "br_object", "--json", "-o", "ev"]).success();
+    let unseen = eval.json();
+    let (net, base) = (clipped_log_psnr(&unseen, "network"), clipped_log_psnr(&unseen, "analytic"));
+    println!("unseen scene: network {net:.2} dB, analytic {base:.2} dB ({} EV)", unseen["analytic_boost_stops"]);
+    // Measured: network 29.97 dB, analytic (1 EV) 29.36, inverse response 26.26.
+    assert!(net >= base + 0.5, "unseen scene: network {net} vs analytic {base}");
     assert!(d.join("ev/000_network.exr").is_file() && d.join("ev/000_truth.exr").is_file());
 }
 

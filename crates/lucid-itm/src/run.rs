@@ -48,7 +48,9 @@ impl Trainable for ItmRun<'_> {
             return Ok(Vec::new());
         }
         let test = crate::data::load(self.held_out, Split::Test, self.trainer.config.model.mask_threshold)?;
-        let report = crate::eval::evaluate_into(&self.trainer.net, &test, &self.trainer.device, out)?;
+        // The baseline's boost is tuned on the training pairs, as the network is.
+        let boost = crate::eval::best_boost(self.data);
+        let report = crate::eval::evaluate_into(&self.trainer.net, &test, &self.trainer.device, boost, out)?;
         Ok(report.lines())
     }
 }

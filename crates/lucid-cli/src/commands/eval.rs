@@ -57,7 +57,12 @@ fn itm(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
     if let Some(limit) = args.limit {
         images.truncate(limit);
     }
-    let report = lucid_itm::eval::evaluate_into(&loaded.trainer.net, &images, &device, out)?;
+    // The analytic baseline's boost is tuned on the dataset's training views, never on the
+    // scored ones; the network may never have seen this scene at all.
+    let tuning = lucid_itm::data::load(std::slice::from_ref(&args.dataset), Split::Train, threshold)
+        .with_context(|| format!("reading the training views of {}", args.dataset.display()))?;
+    let boost = lucid_itm::eval::best_boost(&tuning);
+    let report = lucid_itm::eval::evaluate_into(&loaded.trainer.net, &images, &device, boost, out)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
