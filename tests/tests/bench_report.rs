@@ -26,7 +26,16 @@ fn bench_all_quick_writes_results_and_a_report() {
         println!("{name}: final held-out PSNR {psnr:.2} dB");
         assert!(psnr > floor, "{name}: {psnr} dB");
         assert!(html.contains(&format!("final held-out PSNR {psnr:.2} dB")), "{name}");
+        // The validation split (3 views) is scored too: settings are chosen on it.
+        assert_eq!(results[k]["final_val"]["views"], 3, "{name}");
+        assert!(results[k]["final_val"]["psnr"].as_f64().unwrap() > floor - 2.0, "{name}");
     }
+    // The splat run from random points instead of the exact-depth cloud, beside it.
+    let random = results[2]["random_init"]["final"]["psnr"].as_f64().unwrap();
+    println!("splat from random points: {random:.2} dB");
+    assert!(random > 23.0, "{random}");
+    assert!(html.contains("validation split (settings are chosen on it)"), "the report shows the validation scores");
+    assert!(html.contains(&format!("test PSNR {random:.2} dB")), "the report shows the random-init run");
     let rays = results[0]["rays"].as_u64().unwrap();
     assert!(html.contains(&format!("<td>{rays}</td>")), "trace rays {rays}");
 }

@@ -1,6 +1,7 @@
 //! The benchmarks' held-out curve: a trained model scored each time its training seconds
 //! pass one of a list of budgets (30 s, 1, 2, 5, 10 min), on the same first test views at
-//! every point; the last point scores the whole test split too.
+//! every point; the last point scores the whole test split too, and the validation split,
+//! which is what settings are to be chosen on (the test split only reports).
 
 use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::{EvalSummary, ViewModel, ViewScore, evaluate};
@@ -10,20 +11,24 @@ use serde_json::{Value, json};
 pub struct BudgetCurve<'a> {
     budgets: Vec<f64>,
     test: &'a ImageSet,
+    val: Option<&'a ImageSet>,
     curve_views: usize,
     /// The scored points: seconds, step, PSNR, SSIM, views (and what the caller adds).
     pub points: Vec<Value>,
     /// The whole test split's scores at the last budget.
     pub last: Option<EvalSummary>,
+    /// The whole validation split's scores at the last budget.
+    pub last_val: Option<EvalSummary>,
 }
 
 impl<'a> BudgetCurve<'a> {
     /// The benchmarks' curve: at 30 s, 1, 2, 5 and 10 min (`quick`: 5, 10 and 20 s), on the
-    /// first `curve_views` views of `test`.
-    pub fn benchmark(quick: bool, test: &'a ImageSet, curve_views: usize) -> Self {
+    /// first `curve_views` views of `test`; the last point also scores `val` where given.
+    pub fn benchmark(quick: bool, test: &'a ImageSet, val: Option<&'a ImageSet>, curve_views: usize) -> Self {
         let budgets = if quick { vec![5.0, 10.0, 20.0] } else { vec![30.0, 60.0, 120.0, 300.0, 600.0] };
         let curve_views = curve_views.min(test.len()).max(1);
-        Self { budgets, test, curve_views, points: Vec::new(), last: None }
+        let val = val.filter(|v| !v.is_empty());
+        Self { budgets, test, val, curve_views, points: Vec::new(), last: None, last_val: None }
     }
 
     /// The last budget: the run's length.
@@ -54,6 +59,7 @@ impl<'a> BudgetCurve<'a> {
         self.points.push(point);
         if all {
             self.last = Some(summary);
+            self.last_val = self.val.map(|val| evaluate(renderer, val, None, |_, _, _, _| {}).1);
         }
     }
 }

@@ -37,6 +37,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
+    let val = ImageSet::load(dataset.frames(Split::Val))?;
     let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
     let config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     let device = lucid_nerf::backend::training_device();
@@ -44,7 +45,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let mut model = NerfRun { trainer, data: &train, held_out: None };
     let samples_column = model.log_columns().iter().position(|c| *c == "samples").expect("a samples column");
 
-    let mut curve = BudgetCurve::benchmark(bench.quick, &test, bench.curve_views);
+    let mut curve = BudgetCurve::benchmark(bench.quick, &test, Some(&val), bench.curve_views);
     let total = curve.total();
     let mut samples = 0usize;
     let mut observe = |run: &NerfRun, report: &StepReport, seconds: f64| -> Result<(), ModelError> {
@@ -59,10 +60,19 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let options = RunOptions { label: "nerf bench".into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
     let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
     let last = curve.last.take().context("the last budget point is scored")?;
+    let last_val = curve.last_val.take();
     // Best of 7: a call takes ~0.1 s and this machine's hiccups last longer than that.
     let kernel = time_kernels(&model.trainer.config.field, 1 << 16, 7);
     let phases = StepTimings::from_named(&summary.phases);
-    Ok(report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick))
+    let mut out = report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick);
+    if let Some(val) = &last_val {
+        println!(
+            "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
+            val.views, val.psnr, val.ssim
+        );
+        out["final_val"] = json!(val);
+    }
+    Ok(out)
 }
 
 #[allow(clippy::too_many_arguments)]

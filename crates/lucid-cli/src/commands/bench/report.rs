@@ -76,6 +76,21 @@ pub fn write_report(results: &[Value], quick: bool, dir: &Path) -> anyhow::Resul
                 last["ssim"].as_f64().unwrap_or(f64::NAN)
             ));
         }
+        if let Some(val) = result.get("final_val").filter(|v| !v.is_null()) {
+            r.note(&format!(
+                "validation split (settings are chosen on it): PSNR {:.2} dB, SSIM {:.4}",
+                val["psnr"].as_f64().unwrap_or(f64::NAN),
+                val["ssim"].as_f64().unwrap_or(f64::NAN)
+            ));
+        }
+        if let Some(random) = result.get("random_init") {
+            r.note(&format!(
+                "from {} instead of the exact-depth point cloud: test PSNR {:.2} dB, SSIM {:.4}",
+                random["init"].as_str().unwrap_or("random points"),
+                random["final"]["psnr"].as_f64().unwrap_or(f64::NAN),
+                random["final"]["ssim"].as_f64().unwrap_or(f64::NAN)
+            ));
+        }
         let table: Vec<Vec<String>> = rows.into_iter().map(|(k, v)| vec![k, format_number(v)]).collect();
         r.table(&["measure", "value"], &table);
     }

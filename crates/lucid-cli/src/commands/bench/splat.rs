@@ -14,6 +14,7 @@ use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport};
 use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_scene::dataset::images::{ImageSet, scene_box};
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
+use lucid_splat::config::{InitConfig, SplatConfig};
 use lucid_splat::raster::{rasterize, rasterize_backward};
 use lucid_splat::run::{PHASES, SplatRun};
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
@@ -35,21 +36,29 @@ pub struct SplatBench {
     pub curve_views: usize,
 }
 
-pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
-    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
-        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
-    let dataset = Dataset::open(&bench.dataset)?;
-    let train = ImageSet::load(dataset.frames(Split::Train))?;
-    let test = ImageSet::load(dataset.frames(Split::Test))?;
-    let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
-    let config = lucid_splat::config::SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let cloud = initial_cloud(&config, &dataset).map_err(anyhow::Error::msg)?;
-    let (lo, hi) = scene_box(&dataset);
-    let device = lucid_burn::backend::training_device();
-    let trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, device);
-    let mut model = SplatRun { trainer, data: &train, held_out: None, export: None };
+/// One training run of the benchmark: the model, its curve and the loop's summary.
+struct TrainedRun<'a> {
+    model: SplatRun<'a>,
+    curve: BudgetCurve<'a>,
+    summary: lucid_burn::run::RunSummary,
+}
 
-    let mut curve = BudgetCurve::benchmark(bench.quick, &test, bench.curve_views);
+/// Trains `config` for the benchmark's budget, scoring the curve on `test` (and the last
+/// point on `val`) as it goes.
+fn train_run<'a>(
+    config: SplatConfig,
+    dataset: &Dataset,
+    sets: [&'a ImageSet; 3],
+    bench: &SplatBench,
+    label: &str,
+) -> anyhow::Result<TrainedRun<'a>> {
+    let [train, val, test] = sets;
+    let cloud = initial_cloud(&config, dataset).map_err(anyhow::Error::msg)?;
+    let (lo, hi) = scene_box(dataset);
+    let device = lucid_burn::backend::training_device();
+    let trainer = SplatTrainer::new(config, &cloud, train, (lo + hi) * 0.5, device);
+    let mut model = SplatRun { trainer, data: train, held_out: None, export: None };
+    let mut curve = BudgetCurve::benchmark(bench.quick, test, Some(val), bench.curve_views);
     let total = curve.total();
     let mut observe = |run: &SplatRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
         while curve.due(seconds) {
@@ -60,9 +69,31 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         Ok(())
     };
     // Time ends the run, and the schedules stretch over it.
-    let options = RunOptions { label: "splat bench".into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
+    let options = RunOptions { label: label.into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
     let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
+    Ok(TrainedRun { model, curve, summary })
+}
+
+pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
+    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
+        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
+    let dataset = Dataset::open(&bench.dataset)?;
+    let train = ImageSet::load(dataset.frames(Split::Train))?;
+    let val = ImageSet::load(dataset.frames(Split::Val))?;
+    let test = ImageSet::load(dataset.frames(Split::Test))?;
+    let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
+    let config = SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
+    // The default starts from the dataset's point cloud, which Lucid back-projects from the
+    // renderer's exact depth: a capture never has that. The same run from random points in
+    // the scene box is reported beside it.
+    let random_config = SplatConfig { init: InitConfig { use_points: false, ..config.init }, ..config.clone() };
+    let sets = [&train, &val, &test];
+    let TrainedRun { model, mut curve, summary } = train_run(config, &dataset, sets, &bench, "splat bench")?;
     let last = curve.last.take().context("the last budget point is scored")?;
+    let last_val = curve.last_val.take();
+    let mut random = train_run(random_config, &dataset, sets, &bench, "splat bench, random init")?;
+    let random_last = random.curve.last.take().context("the last budget point is scored")?;
+    let random_val = random.curve.last_val.take();
     let curve = curve.points;
     let trainer = &model.trainer;
     let phases: Vec<f64> =
@@ -85,6 +116,19 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         );
     }
     println!("final: {} test views, PSNR {:.2} dB, SSIM {:.4}", last.views, last.psnr, last.ssim);
+    if let Some(v) = &last_val {
+        println!(
+            "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
+            v.views, v.psnr, v.ssim
+        );
+    }
+    println!(
+        "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB, SSIM {:.4}, {} Gaussians",
+        random.model.trainer.config.init.random_points,
+        random_last.psnr,
+        random_last.ssim,
+        random.model.trainer.model.len()
+    );
     println!("render time per held-out view: {:.3} s", last.seconds_per_view);
     let total_phase: f64 = phases.iter().sum::<f64>().max(1e-9);
     let names = ["render", "loss_and_backward", "optimizer", "densify"];
@@ -118,6 +162,12 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
         "time_shares": names.iter().zip(&phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
         "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
+        "final_val": last_val, "init": "point cloud from the renderer's exact depth (points3d.ply)",
+        "random_init": {
+            "init": format!("{} random points in the scene box", random.model.trainer.config.init.random_points),
+            "curve": random.curve.points, "final": random_last, "final_val": random_val,
+            "gaussians": random.model.trainer.model.len(),
+        },
     }))
 }
 
