@@ -14,7 +14,7 @@ use lucid_trace::light::Light;
 pub struct OlatSpec {
     /// Unit directions towards each light.
     pub directions: Vec<Vec3>,
-    /// Directions of further lights that light only the test views, one at a time: light
+    /// Directions of further lights that light only the validation and test views, one at a time: light
     /// directions a relighting model never saw in training (frames marked
     /// `"held_out_light": true`).
     pub held_out: Vec<Vec3>,
@@ -33,7 +33,7 @@ pub enum Lighting {
         /// Which light.
         index: usize,
     },
-    /// Held-out light number `index` (test views only).
+    /// Held-out light number `index` (validation and test views only).
     HeldOutLight {
         /// Which light.
         index: usize,

@@ -214,7 +214,9 @@ fn plan(spec: &DatasetSpec) -> Vec<PlannedFrame> {
                     stem: format!("{stem}_l{l}"),
                 });
             }
-            if split == Split::Test {
+            // Validation views get what test views get, so that settings can be chosen on
+            // them under the same conditions the test split reports.
+            if split != Split::Train {
                 for k in 0..olat.held_out.len() {
                     frames.push(PlannedFrame {
                         split: split_index,

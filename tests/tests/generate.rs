@@ -194,7 +194,7 @@ fn olat_rig_writes_one_frame_per_light_and_environment_truths() {
         "-o",
         "olat",
         "--views",
-        "2,0,1",
+        "2,1,1",
         "--res",
         "16",
         "--spp",
@@ -209,6 +209,7 @@ fn olat_rig_writes_one_frame_per_light_and_environment_truths() {
     assert_eq!(info["splits"][0]["frames"], 6, "2 views x 3 lights");
     assert_eq!(info["splits"][0]["extras"]["light_direction"], 6);
     assert_eq!(info["splits"][2]["frames"], 9, "1 view x (3 lights + 4 held-out lights + 2 environments)");
+    assert_eq!(info["splits"][1]["frames"], 9, "validation views are lit as test views are");
     let test: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("olat/transforms_test.json")).unwrap()).unwrap();
     let frames = test["frames"].as_array().unwrap();

@@ -447,7 +447,8 @@ pub enum RigArg {
     /// ground truths from its centre (the test split), for refocusing.
     Lightfield,
     /// Orbit views, each rendered once per directional light spread over the sphere (one light
-    /// at a time, linear HDR), plus the test views under held-out environment maps.
+    /// at a time, linear HDR), plus the validation and test views under held-out lights and
+    /// environment maps.
     Olat,
 }
 
@@ -533,7 +534,7 @@ pub struct GenArgs {
     /// OLAT rig: irradiance of each light (π: a white diffuse surface facing it renders 1).
     #[arg(long, default_value_t = std::f32::consts::PI)]
     pub light_irradiance: f32,
-    /// OLAT rig: further lights, between the training ones, that light only the test views
+    /// OLAT rig: further lights, between the training ones, that light only the validation and test views
     /// (each on its own): held-out light directions for evaluating relighting models.
     #[arg(long, default_value_t = 8)]
     pub held_out_lights: usize,
