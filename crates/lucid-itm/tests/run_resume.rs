@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use burn::tensor::{Tensor, TensorData};
-use lucid_burn::run::{Budget, NoObserver, RunOptions, run};
+use lucid_burn::run::{NoObserver, RunOptions, log_without_seconds, run};
 use lucid_image::Image;
 use lucid_itm::config::ItmConfig;
 use lucid_itm::data::ItmImage;
@@ -12,13 +12,7 @@ use lucid_itm::run::ItmRun;
 use lucid_itm::trainer::ItmTrainer;
 
 fn options(dir: &Path, until: Option<usize>) -> RunOptions {
-    RunOptions {
-        until,
-        checkpoint: Some(dir.join("checkpoint.lucid")),
-        log: Some(dir.join("train_log.csv")),
-        log_every: 2,
-        ..RunOptions::new(Budget::Steps { steps: 10 })
-    }
+    RunOptions::in_folder(dir, 10, until, 2)
 }
 
 /// A smooth HDR gradient and its exposure clipped at 1: half of each image clips.
@@ -68,12 +62,7 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
     let (a, b) = (output(&resumed.trainer), output(&whole.trainer));
     assert_eq!(a, b, "bit-identical networks");
     assert_ne!(a, output(&fresh()), "training changed the network");
-    let steps_and_losses = |d: &Path| -> Vec<String> {
-        let log = std::fs::read_to_string(d.join("train_log.csv")).unwrap();
-        log.lines()
-            .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != 1).map(|(_, f)| f).collect::<Vec<_>>().join(","))
-            .collect()
-    };
+    let steps_and_losses = |d: &Path| log_without_seconds(&d.join("train_log.csv")).unwrap();
     let log = steps_and_losses(&split_dir);
     assert_eq!(log, steps_and_losses(&whole_dir));
     assert_eq!(log.len(), 6, "a header and a row every 2 steps: {log:?}");

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use lucid_burn::run::{Budget, NoObserver, RunOptions, run};
+use lucid_burn::run::{NoObserver, RunOptions, log_without_seconds, run};
 use lucid_datasets_gen::builtin::object_orbit_spec;
 use lucid_datasets_gen::{AnalyticScene, Shard, generate_dataset};
 use lucid_nerf::config::NerfConfig;
@@ -13,13 +13,7 @@ use lucid_nerf::trainer::NerfTrainer;
 use lucid_scene::{Dataset, Split};
 
 fn options(dir: &Path, until: Option<usize>) -> RunOptions {
-    RunOptions {
-        until,
-        checkpoint: Some(dir.join("checkpoint.lucid")),
-        log: Some(dir.join("train_log.csv")),
-        log_every: 2,
-        ..RunOptions::new(Budget::Steps { steps: 12 })
-    }
+    RunOptions::in_folder(dir, 12, until, 2)
 }
 
 #[test]
@@ -63,11 +57,6 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
     };
     assert_eq!(values(&resumed.trainer), values(&whole.trainer), "bit-identical parameters");
     assert_eq!(resumed.trainer.grid, whole.trainer.grid);
-    let steps_and_losses = |d: &Path| -> Vec<String> {
-        let log = std::fs::read_to_string(d.join("train_log.csv")).unwrap();
-        log.lines()
-            .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != 1).map(|(_, f)| f).collect::<Vec<_>>().join(","))
-            .collect()
-    };
+    let steps_and_losses = |d: &Path| log_without_seconds(&d.join("train_log.csv")).unwrap();
     assert_eq!(steps_and_losses(&split_dir), steps_and_losses(&whole_dir));
 }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use lucid_burn::run::{Budget, NoObserver, RunOptions, run};
+use lucid_burn::run::{NoObserver, RunOptions, log_without_seconds, run};
 use lucid_relight_head::checkpoint::LightSet;
 use lucid_relight_head::config::RelightConfig;
 use lucid_relight_head::data::{CapturedView, LitImage, OlatSet};
@@ -15,13 +15,7 @@ use lucid_splat::cloud::SplatCloud;
 use lucid_splat::project::RenderSettings;
 
 fn options(dir: &Path, until: Option<usize>) -> RunOptions {
-    RunOptions {
-        until,
-        checkpoint: Some(dir.join("checkpoint.lucid")),
-        log: Some(dir.join("train_log.csv")),
-        log_every: 2,
-        ..RunOptions::new(Budget::Steps { steps: 8 })
-    }
+    RunOptions::in_folder(dir, 8, until, 2)
 }
 
 /// Two views of three lights each; the targets are smooth, light-dependent colour ramps.
@@ -91,12 +85,7 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
     let (a, b) = (radiance(&resumed.trainer), radiance(&whole.trainer));
     assert_eq!(a, b, "bit-identical heads");
     assert_ne!(a, radiance(&fresh()), "training changed the head");
-    let steps_and_losses = |d: &Path| -> Vec<String> {
-        let log = std::fs::read_to_string(d.join("train_log.csv")).unwrap();
-        log.lines()
-            .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != 1).map(|(_, f)| f).collect::<Vec<_>>().join(","))
-            .collect()
-    };
+    let steps_and_losses = |d: &Path| log_without_seconds(&d.join("train_log.csv")).unwrap();
     let log = steps_and_losses(&split_dir);
     assert_eq!(log, steps_and_losses(&whole_dir));
     assert_eq!(log.len(), 5, "a header and a row every 2 steps: {log:?}");

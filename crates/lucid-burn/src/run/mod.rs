@@ -211,6 +211,31 @@ impl RunOptions {
     }
 }
 
+impl RunOptions {
+    /// Options for a run in `dir` (`checkpoint.lucid`, `train_log.csv`, a row every
+    /// `log_every` steps) of `steps` steps, stopped at `until` if given: the shape of a
+    /// resume test.
+    pub fn in_folder(dir: &Path, steps: usize, until: Option<usize>, log_every: usize) -> Self {
+        Self {
+            until,
+            checkpoint: Some(dir.join(CHECKPOINT)),
+            log: Some(dir.join("train_log.csv")),
+            log_every,
+            ..Self::new(Budget::Steps { steps })
+        }
+    }
+}
+
+/// The rows of a run's CSV log without its `seconds` column: what two runs of one seed must
+/// share whatever their timing.
+pub fn log_without_seconds(path: &Path) -> Result<Vec<String>, RunError> {
+    let text = std::fs::read_to_string(path).map_err(|source| RunError::Io { path: path.to_path_buf(), source })?;
+    Ok(text
+        .lines()
+        .map(|l| l.split(',').enumerate().filter(|(i, _)| *i != 1).map(|(_, f)| f).collect::<Vec<_>>().join(","))
+        .collect())
+}
+
 /// Default seconds of training between checkpoints: a run killed after its first minute
 /// always has one to resume from.
 pub const DEFAULT_CHECKPOINT_SECONDS: f64 = 60.0;
