@@ -7,6 +7,14 @@ use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::{EvalSummary, ViewModel, ViewScore, evaluate};
 use serde_json::{Value, json};
 
+/// Prints the validation split's scores, the ones settings are to be chosen on.
+pub fn print_validation(val: &EvalSummary) {
+    println!(
+        "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
+        val.views, val.psnr, val.ssim
+    );
+}
+
 /// The curve of one benchmark run.
 pub struct BudgetCurve<'a> {
     budgets: Vec<f64>,

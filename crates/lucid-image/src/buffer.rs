@@ -96,6 +96,11 @@ impl Image {
         self.pixels.iter().all(|p| p.iter().all(|v| v.is_finite()))
     }
 
+    /// How many values (channels of pixels) are NaN or infinite.
+    pub fn non_finite_count(&self) -> usize {
+        self.pixels.iter().flatten().filter(|v| !v.is_finite()).count()
+    }
+
     /// Applies `f` to every pixel.
     pub fn map(&self, mut f: impl FnMut([f32; 4]) -> [f32; 4]) -> Self {
         Self { width: self.width, height: self.height, pixels: self.pixels.iter().map(|&p| f(p)).collect() }

@@ -141,6 +141,28 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
 }
 
 impl RelightConfig {
+    /// The memory training with this configuration needs at its peak: the geometry's splat
+    /// estimate for `training_pixels` pixels (the largest image `largest_image`), the head's
+    /// features per Gaussian, and `olat_values` linear values of OLAT frames (see
+    /// [`lucid_burn::memory`]).
+    pub fn memory_estimate(
+        &self,
+        training_pixels: usize,
+        largest_image: usize,
+        olat_values: usize,
+    ) -> lucid_burn::memory::MemoryEstimate {
+        use lucid_burn::memory::floats;
+        let g = &self.geometry;
+        let mut estimate = g.memory_estimate(g.init.random_points, training_pixels, largest_image);
+        let gaussians = g.densify.max_gaussians.max(g.init.random_points) as f64;
+        estimate.add(
+            format!("head features (head.features = {}, one row per Gaussian)", self.head.features),
+            floats(10.0 * gaussians * self.head.features as f64),
+        );
+        estimate.add("OLAT training frames", floats(olat_values as f64));
+        estimate
+    }
+
     /// Parses TOML text (`origin` names it in errors) over the defaults, key by key (a
     /// `[geometry.train]` table changes only the keys it names), and validates it.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, String> {

@@ -116,8 +116,8 @@ pub fn load(path: &Path, device: &Device) -> Result<LoadedSplats, CheckpointErro
     }
     let n = header.gaussians;
     // A header that claims more Gaussians than the file holds is damage, not a reason to
-    // allocate (59 parameters of 4 bytes each).
-    if n > crate::config::MAX_GAUSSIANS || model.len() < 4 * 59 * n {
+    // allocate.
+    if n > crate::config::MAX_GAUSSIANS || model.len() < 4 * WIDTHS.iter().sum::<usize>() * n {
         return Err(invalid(path, format!("header says {n} Gaussians, the parameters hold {} bytes", model.len())));
     }
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.clone()))

@@ -209,9 +209,7 @@ impl RunOptions {
             evaluate: None,
         }
     }
-}
 
-impl RunOptions {
     /// Options for a run in `dir` (`checkpoint.lucid`, `train_log.csv`, a row every
     /// `log_every` steps) of `steps` steps, stopped at `until` if given: the shape of a
     /// resume test.

@@ -14,7 +14,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     let out_format = ImageFormat::from_path(&args.output)?;
     let background = args.background.as_deref().map(super::parse_background).transpose()?;
     let image = read_image(&args.input)?;
-    let bad = image.pixels().iter().flatten().filter(|v| !v.is_finite()).count();
+    let bad = image.non_finite_count();
     if bad > 0 && !out_format.stores_non_finite() {
         anyhow::bail!(
             "{}: {bad} values are NaN or infinite, which {} cannot store (they would come out black); nothing written: convert to EXR or PFM, or fix the image",
@@ -33,9 +33,7 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
                 out_format.name()
             );
         }
-        let bg = background.unwrap_or([0.0; 3]);
-        let over = |c: f32, b: f32, a: f32| c * a + b * (1.0 - a);
-        image.map(|p| [over(p[0], bg[0], p[3]), over(p[1], bg[1], p[3]), over(p[2], bg[2], p[3]), 1.0])
+        lucid_image::color::composite_over(&image, background.unwrap_or([0.0; 3]))
     };
     let curve = match args.tone_curve {
         ToneCurveArg::Clip => ToneCurve::Clip,

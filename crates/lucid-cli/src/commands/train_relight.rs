@@ -102,18 +102,9 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         .without_held_out_lights();
     data.require_lights(&args.dataset, Split::Train)?;
     if let Some(config) = &config {
-        use lucid_burn::memory::floats;
-        let g = &config.geometry;
         let (pixels, largest) = training::training_pixels(&dataset);
-        let mut estimate = g.memory_estimate(g.init.random_points, pixels, largest);
-        let gaussians = g.densify.max_gaussians.max(g.init.random_points) as f64;
-        estimate.add(
-            format!("head features (head.features = {}, one row per Gaussian)", config.head.features),
-            floats(10.0 * gaussians * config.head.features as f64),
-        );
-        let olat: usize = data.views.iter().map(|v| v.lights.len() * v.alpha.len()).sum();
-        estimate.add("OLAT training frames", floats(3.0 * olat as f64));
-        training::check_memory(&estimate)?;
+        let olat_values: usize = data.views.iter().map(|v| v.lights.iter().map(|l| l.rgb.len()).sum::<usize>()).sum();
+        training::check_memory(&config.memory_estimate(pixels, largest, olat_values))?;
     }
     let folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
     let device = lucid_burn::backend::training_device();

@@ -81,7 +81,7 @@ pub fn compare_files(
 ) -> Result<ImageMetrics, FileMetricError> {
     let read = |path: &std::path::Path| -> Result<Image, FileMetricError> {
         let image = crate::read_image(path)?;
-        let count = image.pixels().iter().flatten().filter(|v| !v.is_finite()).count();
+        let count = image.non_finite_count();
         if count > 0 {
             return Err(FileMetricError::NonFinite { path: path.to_path_buf(), count });
         }

@@ -66,10 +66,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let phases = StepTimings::from_named(&summary.phases);
     let mut out = report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick);
     if let Some(val) = &last_val {
-        println!(
-            "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
-            val.views, val.psnr, val.ssim
-        );
+        crate::budget_curve::print_validation(val);
         out["final_val"] = json!(val);
     }
     Ok(out)

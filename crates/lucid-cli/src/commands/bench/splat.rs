@@ -116,11 +116,8 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         );
     }
     println!("final: {} test views, PSNR {:.2} dB, SSIM {:.4}", last.views, last.psnr, last.ssim);
-    if let Some(v) = &last_val {
-        println!(
-            "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
-            v.views, v.psnr, v.ssim
-        );
+    if let Some(val) = &last_val {
+        crate::budget_curve::print_validation(val);
     }
     println!(
         "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB, SSIM {:.4}, {} Gaussians",
