@@ -50,6 +50,13 @@ pub fn is_checkpoint(path: &Path) -> bool {
 /// Peeks at a checkpoint's kind without loading it: reads the preamble and the JSON header
 /// only (commands that dispatch on the kind then load the file once, not twice).
 pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
+    let header = read_header(path)?;
+    Ok(header.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown").to_string())
+}
+
+/// A checkpoint's JSON header (kind, configuration, steps taken, training seconds, …) without
+/// reading its tensors.
+pub fn read_header(path: &Path) -> Result<serde_json::Value, CheckpointError> {
     use std::io::Read;
     let io = |source| CheckpointError::Io { path: path.into(), source };
     let mut file = std::fs::File::open(path).map_err(io)?;
@@ -68,9 +75,7 @@ pub fn read_kind(path: &Path) -> Result<String, CheckpointError> {
     }
     let mut head = Vec::with_capacity(len as usize);
     file.take(len).read_to_end(&mut head).map_err(io)?;
-    let header: serde_json::Value =
-        serde_json::from_slice(&head).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
-    Ok(header.get("kind").and_then(|k| k.as_str()).unwrap_or("unknown").to_string())
+    serde_json::from_slice(&head).map_err(|e| invalid(path, format!("malformed header: {e}")))
 }
 
 /// Checks the magic and the format version at the start of `bytes`; returns the version.

@@ -30,7 +30,8 @@ pub enum Command {
     Convert(ConvertArgs),
     /// PSNR and SSIM of two images, or of two folders of images matched by file stem.
     Metrics(MetricsArgs),
-    /// Describe a dataset folder (transforms_*.json): frames, resolution, intrinsics, bounds.
+    /// Describe a dataset folder (transforms_*.json): frames, resolution, intrinsics, bounds;
+    /// or a checkpoint: its kind, steps and training time.
     Info(InfoArgs),
     /// Path-trace a scene file (configs/scenes/*.toml) to EXR + PNG with depth, normal and
     /// albedo buffers.
@@ -777,7 +778,7 @@ pub struct MetricsArgs {
 /// `lucid info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The dataset folder.
+    /// A dataset folder, or a checkpoint file (`checkpoint.lucid`, or a run folder holding one).
     pub dataset: PathBuf,
     /// Print JSON instead of text.
     #[arg(long)]

@@ -1,4 +1,5 @@
-//! `lucid info DATASET`: what a dataset folder holds.
+//! `lucid info PATH`: what a dataset folder holds, or what a checkpoint (or the run folder
+//! holding one) was trained to.
 
 use anyhow::Context;
 use lucid_scene::Dataset;
@@ -8,6 +9,10 @@ use serde_json::Value;
 use crate::cli::InfoArgs;
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
+    let checkpoint = if args.dataset.is_dir() { args.dataset.join("checkpoint.lucid") } else { args.dataset.clone() };
+    if lucid_burn::checkpoint::is_checkpoint(&checkpoint) {
+        return checkpoint_info(&checkpoint, args.json);
+    }
     let dataset =
         Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     let summary = summarise(&dataset);
@@ -68,4 +73,25 @@ fn print_text(dataset: &Dataset, summary: &Value) {
             lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
         );
     }
+}
+
+/// The checkpoint's header: kind, steps, training time and the scalars its trainer records
+/// (the configuration only with `--json`).
+fn checkpoint_info(path: &std::path::Path, json: bool) -> anyhow::Result<()> {
+    let header = lucid_burn::checkpoint::read_header(path)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&header)?);
+        return Ok(());
+    }
+    println!("checkpoint {}", path.display());
+    println!("  kind {}", header["kind"].as_str().unwrap_or("unknown"));
+    println!("  step {}", header["step"].as_u64().unwrap_or(0));
+    println!("  trained for {:.1} s", header["elapsed"].as_f64().unwrap_or(0.0));
+    for (key, value) in header.as_object().into_iter().flatten() {
+        let scalar = value.is_number() || value.is_string() || value.is_boolean();
+        if scalar && !["kind", "step", "elapsed"].contains(&key.as_str()) {
+            println!("  {key} {value}");
+        }
+    }
+    Ok(())
 }
