@@ -1,11 +1,14 @@
-//! Cameras: intrinsics, the pinhole and thin-lens models, and pose helpers.
+//! Cameras: intrinsics (with the lens's distortion), the pinhole and thin-lens models, and
+//! pose helpers.
 
 use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
 
 use crate::Ray;
+use crate::lens::LensDistortion;
 use crate::sampling::concentric_disk;
 
-/// Pinhole intrinsics in pixels: image size, focal lengths and principal point.
+/// Intrinsics in pixels: image size, focal lengths, principal point, and the lens's
+/// distortion (none for the pinhole of synthetic sets).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Intrinsics {
     /// Image width in pixels.
@@ -20,6 +23,8 @@ pub struct Intrinsics {
     pub cx: f32,
     /// Principal point, y (pixels from the top edge).
     pub cy: f32,
+    /// How the lens bends rays away from the pinhole's.
+    pub distortion: LensDistortion,
 }
 
 impl Intrinsics {
@@ -27,7 +32,12 @@ impl Intrinsics {
     /// (the Blender set's `camera_angle_x`): `f = 0.5·W / tan(0.5·fov_x)`.
     pub fn from_fov_x(width: u32, height: u32, fov_x: f32) -> Self {
         let f = 0.5 * width as f32 / (0.5 * fov_x).tan();
-        Self { width, height, fx: f, fy: f, cx: 0.5 * width as f32, cy: 0.5 * height as f32 }
+        Self::pinhole(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32)
+    }
+
+    /// A camera without distortion.
+    pub fn pinhole(width: u32, height: u32, fx: f32, fy: f32, cx: f32, cy: f32) -> Self {
+        Self { width, height, fx, fy, cx, cy, distortion: LensDistortion::None }
     }
 
     /// Horizontal field of view in radians.
@@ -45,14 +55,24 @@ impl Intrinsics {
     pub fn resized(&self, width: u32, height: u32) -> Self {
         let sx = width as f32 / self.width as f32;
         let sy = height as f32 / self.height as f32;
-        Self { width, height, fx: self.fx * sx, fy: self.fy * sy, cx: self.cx * sx, cy: self.cy * sy }
+        // Distortion acts on normalised coordinates, which do not change with the resolution.
+        Self { width, height, fx: self.fx * sx, fy: self.fy * sy, cx: self.cx * sx, cy: self.cy * sy, ..*self }
+    }
+
+    /// The same focal lengths and principal point without the lens's distortion: the camera
+    /// that undistorted images are taken with.
+    pub fn without_distortion(&self) -> Self {
+        Self { distortion: LensDistortion::None, ..*self }
     }
 
     /// The camera-space direction (not normalised, `z = −1`) through the image point
-    /// `(px, py)`, where pixel `(i, j)` covers `[i, i+1) × [j, j+1)`.
+    /// `(px, py)`, where pixel `(i, j)` covers `[i, i+1) × [j, j+1)`: through the inverse of
+    /// the lens's distortion, so the ray is the one the real lens saw along.
     #[inline]
     pub fn camera_direction(&self, px: f32, py: f32) -> Vec3 {
-        Vec3::new((px - self.cx) / self.fx, -(py - self.cy) / self.fy, -1.0)
+        let d = Vec2::new((px - self.cx) / self.fx, (py - self.cy) / self.fy);
+        let u = if self.distortion.is_pinhole() { d } else { self.distortion.undistort(d) };
+        Vec3::new(u.x, -u.y, -1.0)
     }
 
     /// The image point where a camera-space point projects, or `None` behind the camera.
@@ -61,7 +81,8 @@ impl Intrinsics {
             return None;
         }
         let z = -p_camera.z;
-        Some(Vec2::new(self.cx + self.fx * p_camera.x / z, self.cy - self.fy * p_camera.y / z))
+        let d = self.distortion.distort(Vec2::new(p_camera.x / z, -p_camera.y / z));
+        Some(Vec2::new(self.cx + self.fx * d.x, self.cy + self.fy * d.y))
     }
 }
 

@@ -14,11 +14,14 @@ pub mod camera;
 pub mod dataset;
 pub mod evaluation;
 pub mod held_out;
+pub mod lens;
 pub mod prefetch;
 pub mod ray;
 pub mod sampling;
 pub mod simd;
+pub mod undistort;
 
 pub use camera::{Camera, Intrinsics, PinholeCamera, ThinLensCamera, look_at};
 pub use dataset::{Dataset, DatasetError, Frame, FrameExtras, Split, SplitFrames};
+pub use lens::LensDistortion;
 pub use ray::Ray;

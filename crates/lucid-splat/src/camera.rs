@@ -28,8 +28,17 @@ pub struct SplatCamera {
 }
 
 impl SplatCamera {
-    /// From a dataset camera (OpenGL convention: looks down −Z, +Y up).
+    /// From a dataset camera (OpenGL convention: looks down −Z, +Y up) without lens
+    /// distortion: distorted views go through [`lucid_scene::undistort`] first (training images
+    /// by `ImageSet::undistorted`, renders by the view renderer's warp).
+    ///
+    /// # Panics
+    /// On a camera with distortion, which a pinhole projection would silently ignore.
     pub fn from_pinhole(camera: &PinholeCamera) -> Self {
+        assert!(
+            camera.intrinsics.distortion.is_pinhole(),
+            "a splat camera projects through a pinhole: undistort the view first"
+        );
         let w2c = camera.camera_to_world.inverse();
         // OpenGL view → computer-vision view: flip y and z.
         let flip = Mat3::from_diagonal(Vec3::new(1.0, -1.0, -1.0));

@@ -7,6 +7,7 @@ use lucid_image::Image;
 use lucid_scene::camera::PinholeCamera;
 use lucid_scene::evaluation::{RenderedView, ViewModel};
 use lucid_scene::sampling::{concentric_disk, stratified_square};
+use lucid_scene::undistort::{outer_pinhole, resample};
 
 use crate::camera::SplatCamera;
 use crate::cloud::SplatCloud;
@@ -22,10 +23,21 @@ pub struct SplatRenderer<'a> {
 }
 
 impl SplatRenderer<'_> {
-    /// `RGBA` (colour over the background, alpha) and expected depth of one pinhole view.
+    /// `RGBA` (colour over the background, alpha) and expected depth of one view. A distorted
+    /// view is rendered through a pinhole that covers it and warped through the lens.
     fn render_pinhole(&self, camera: &PinholeCamera) -> (Vec<f32>, Vec<f32>) {
-        let (image, state) = render(&self.cloud.params(), &SplatCamera::from_pinhole(camera), &self.settings);
-        (image, state.pixels.depth)
+        let k = camera.intrinsics;
+        let wide = PinholeCamera::new(outer_pinhole(&k), camera.camera_to_world);
+        let (image, state) = render(&self.cloud.params(), &SplatCamera::from_pinhole(&wide), &self.settings);
+        if k.distortion.is_pinhole() {
+            return (image, state.pixels.depth);
+        }
+        let rgba: Vec<[f32; 4]> = image.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+        let rgba = resample(&rgba, &wide.intrinsics, &k);
+        // Depth along the axis is the same for both cameras (one pose), so it warps as it is.
+        let depth: Vec<[f32; 1]> = state.pixels.depth.iter().map(|&d| [d]).collect();
+        let depth = resample(&depth, &wide.intrinsics, &k);
+        (rgba.into_iter().flatten().collect(), depth.into_iter().map(|d| d[0]).collect())
     }
 }
 

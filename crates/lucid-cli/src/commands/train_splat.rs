@@ -32,7 +32,9 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
         training::check_memory(&config.memory_estimate(config.init.random_points, pixels, largest))?;
     }
     let folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
-    let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
+    let loaded = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
+    // The rasterizer projects through pinholes: distorted captures train on undistorted crops.
+    let data = loaded.undistorted();
     let device = lucid_burn::backend::training_device();
     let (trainer, elapsed) = match config {
         None => {

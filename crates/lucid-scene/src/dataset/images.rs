@@ -50,6 +50,22 @@ impl ImageSet {
         Ok(set)
     }
 
+    /// The same views through pinhole cameras that see only what each image holds, resampled
+    /// through the lens: the training images of a rasterizer, which projects through pinholes
+    /// only. Borrowed unchanged when every camera already is a pinhole.
+    pub fn undistorted(&self) -> std::borrow::Cow<'_, ImageSet> {
+        if self.cameras.iter().all(|c| c.intrinsics.distortion.is_pinhole()) {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut set = self.clone();
+        for (camera, pixels) in set.cameras.iter_mut().zip(&mut set.pixels) {
+            let pinhole = crate::undistort::inner_pinhole(&camera.intrinsics);
+            *pixels = crate::undistort::resample(pixels, &camera.intrinsics, &pinhole);
+            camera.intrinsics = pinhole;
+        }
+        std::borrow::Cow::Owned(set)
+    }
+
     /// Number of images.
     pub fn len(&self) -> usize {
         self.cameras.len()

@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 use serde_json::{Map, Value};
 
 use super::{Dataset, DatasetError, Frame, FrameExtras, SceneBounds, Split, SplitFrames};
-use crate::{Intrinsics, PinholeCamera};
+use crate::{Intrinsics, LensDistortion, PinholeCamera};
 
 /// Extensions tried, in order, when a `file_path` has none (the Blender set writes
 /// `./train/r_0` for `train/r_0.png`).
@@ -443,6 +443,66 @@ impl Context<'_> {
         };
         let cx = pick("cx")?.unwrap_or(0.5 * w as f32);
         let cy = pick("cy")?.unwrap_or(0.5 * h as f32);
-        Ok(Intrinsics { width: w, height: h, fx, fy, cx, cy })
+        let distortion = self.distortion(root, frame, key)?;
+        Ok(Intrinsics { distortion, ..Intrinsics::pinhole(w, h, fx, fy, cx, cy) })
+    }
+
+    /// The lens from nerfstudio's `camera_model` and `k1…k4`, `p1`, `p2` (instant-ngp writes
+    /// the coefficients without a model, and `is_fisheye`), per frame or for the file. A model
+    /// that cannot be honoured, or coefficients a pinhole model does not have, are errors:
+    /// training through the wrong lens would quietly blur everything away from the centre.
+    fn distortion(
+        &self,
+        root: &Map<String, Value>,
+        frame: &Map<String, Value>,
+        key: &str,
+    ) -> Result<LensDistortion, DatasetError> {
+        let (model_key, model) = match (frame.get("camera_model"), root.get("camera_model")) {
+            (Some(v), _) => (format!("{key}.camera_model"), Some(v)),
+            (None, Some(v)) => ("camera_model".to_string(), Some(v)),
+            (None, None) => ("camera_model".to_string(), None),
+        };
+        let model = match model {
+            None | Some(Value::Null) => None,
+            Some(v) => Some(v.as_str().ok_or_else(|| self.invalid(&model_key, format!("expected a string, got {v}")))?),
+        };
+        let coefficient = |name: &str| -> Result<f32, DatasetError> {
+            match self.number(frame, name, &format!("{key}.{name}"))? {
+                Some(v) => Ok(v),
+                None => Ok(self.number(root, name, name)?.unwrap_or(0.0)),
+            }
+        };
+        let [k1, k2, k3, k4, p1, p2] = ["k1", "k2", "k3", "k4", "p1", "p2"].map(coefficient);
+        let (k1, k2, k3, k4, p1, p2) = (k1?, k2?, k3?, k4?, p1?, p2?);
+        let fisheye_flag = match frame.get("is_fisheye").or_else(|| root.get("is_fisheye")) {
+            None | Some(Value::Null) => false,
+            Some(v) => v.as_bool().ok_or_else(|| self.invalid("is_fisheye", "expected true or false"))?,
+        };
+        let opencv = LensDistortion::OpenCv { radial: [k1, k2, k3, k4], rational: [0.0; 3], tangential: [p1, p2] };
+        let fisheye = || -> Result<LensDistortion, DatasetError> {
+            if p1 != 0.0 || p2 != 0.0 {
+                return Err(self.invalid(&model_key, "a fisheye lens has no tangential p1, p2 in nerfstudio's model"));
+            }
+            Ok(LensDistortion::Fisheye { k: [k1, k2, k3, k4] })
+        };
+        match model {
+            None if fisheye_flag => fisheye(),
+            None => Ok(opencv.simplified()),
+            Some("PINHOLE" | "SIMPLE_PINHOLE") => {
+                if !opencv.simplified().is_pinhole() {
+                    return Err(self.invalid(
+                        &model_key,
+                        format!("{} has no distortion, yet k1..k4, p1, p2 = {k1}, {k2}, {k3}, {k4}, {p1}, {p2}", model.unwrap_or_default()),
+                    ));
+                }
+                Ok(LensDistortion::None)
+            }
+            Some("OPENCV" | "SIMPLE_RADIAL" | "RADIAL") => Ok(opencv.simplified()),
+            Some("OPENCV_FISHEYE") => fisheye(),
+            Some(other) => Err(self.invalid(
+                &model_key,
+                format!("camera model {other} is not supported (Lucid honours PINHOLE, SIMPLE_PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV and OPENCV_FISHEYE)"),
+            )),
+        }
     }
 }

@@ -9,7 +9,7 @@ use glam::{Mat4, Vec3};
 use serde_json::{Map, Value, json};
 
 use super::DatasetError;
-use crate::Intrinsics;
+use crate::{Intrinsics, LensDistortion};
 
 /// A frame as written: paths are relative to the JSON file's folder, as they appear in it.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -56,6 +56,28 @@ pub fn write_transforms(
     root.insert("cy".into(), json!(intrinsics.cy));
     root.insert("w".into(), json!(intrinsics.width));
     root.insert("h".into(), json!(intrinsics.height));
+    match intrinsics.distortion {
+        LensDistortion::None => {}
+        LensDistortion::OpenCv { radial, rational: [0.0, 0.0, 0.0], tangential } => {
+            root.insert("camera_model".into(), json!("OPENCV"));
+            for (name, value) in ["k1", "k2", "k3", "k4", "p1", "p2"].iter().zip(radial.iter().chain(&tangential)) {
+                root.insert((*name).into(), json!(value));
+            }
+        }
+        LensDistortion::Fisheye { k } => {
+            root.insert("camera_model".into(), json!("OPENCV_FISHEYE"));
+            for (name, value) in ["k1", "k2", "k3", "k4"].iter().zip(&k) {
+                root.insert((*name).into(), json!(value));
+            }
+        }
+        LensDistortion::OpenCv { .. } => {
+            return Err(DatasetError::Invalid {
+                path: path.to_path_buf(),
+                key: "camera_model".into(),
+                reason: "nerfstudio's transforms have no rational (FULL_OPENCV) lens model".into(),
+            });
+        }
+    }
     if let Some((min, max)) = aabb {
         root.insert("aabb".into(), json!([min.to_array(), max.to_array()]));
     }

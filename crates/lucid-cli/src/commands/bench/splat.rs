@@ -78,7 +78,10 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
         .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
     let dataset = Dataset::open(&bench.dataset)?;
-    let train = ImageSet::load(dataset.frames(Split::Train))?;
+    // The rasterizer projects through pinholes: distorted captures train on undistorted crops
+    // (and are scored on their own images through the renderer's warp).
+    let loaded = ImageSet::load(dataset.frames(Split::Train))?;
+    let train = loaded.undistorted();
     let val = ImageSet::load(dataset.frames(Split::Val))?;
     let test = ImageSet::load(dataset.frames(Split::Test))?;
     let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
@@ -87,7 +90,7 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     // renderer's exact depth: a capture never has that. The same run from random points in
     // the scene box is reported beside it.
     let random_config = SplatConfig { init: InitConfig { use_points: false, ..config.init }, ..config.clone() };
-    let sets = [&train, &val, &test];
+    let sets = [&*train, &val, &test];
     let TrainedRun { model, mut curve, summary } = train_run(config, &dataset, sets, &bench, "splat bench")?;
     let last = curve.last.take().context("the last budget point is scored")?;
     let last_val = curve.last_val.take();
