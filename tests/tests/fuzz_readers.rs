@@ -200,3 +200,30 @@ fn split_sections(bytes: &[u8]) -> Vec<&[u8]> {
     parts.push(rest);
     parts
 }
+
+#[test]
+fn the_colmap_reader_survives_damaged_files() {
+    let fixture = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../crates/lucid-scene/tests/fixtures/colmap");
+    for (encoding, source) in [("bin", "sparse/0"), ("txt", "sparse_text/0")] {
+        let dir = temp();
+        std::fs::create_dir_all(dir.path().join("sparse/0")).unwrap();
+        std::fs::create_dir(dir.path().join("images")).unwrap();
+        for f in std::fs::read_dir(fixture.join("images")).unwrap() {
+            let f = f.unwrap().path();
+            std::fs::copy(&f, dir.path().join("images").join(f.file_name().unwrap())).unwrap();
+        }
+        for name in ["cameras", "images", "points3D"] {
+            let file = format!("{name}.{encoding}");
+            std::fs::copy(fixture.join(source).join(&file), dir.path().join("sparse/0").join(&file)).unwrap();
+        }
+        for name in ["cameras", "images", "points3D"] {
+            let case = dir.path().join("sparse/0").join(format!("{name}.{encoding}"));
+            let seed = std::fs::read(&case).unwrap();
+            let root = dir.path().to_path_buf();
+            fuzz(&format!("COLMAP {name}.{encoding}"), &case, seed.clone(), |_: &Path| {
+                lucid_scene::Dataset::open(&root)
+            });
+            std::fs::write(&case, seed).unwrap();
+        }
+    }
+}

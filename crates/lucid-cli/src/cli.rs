@@ -350,10 +350,32 @@ pub struct TrainItmArgs {
     pub run: RunArgs,
 }
 
+/// How a dataset without split files (a lone transforms.json, a COLMAP capture) is split,
+/// and at what scale a capture's photographs are read.
+#[derive(Clone, Copy, Debug, Args)]
+pub struct DatasetArgs {
+    /// Without split files: every Nth image by sorted name is a test view (the Mip-NeRF 360 /
+    /// LLFF convention); 0 holds none out. Use the same value to train and to evaluate.
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub holdout_every: usize,
+    /// Captures: read the photographs at 1/N size, from images_N/ where it exists, else
+    /// resized on reading.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub downscale: Option<u32>,
+}
+
+impl DatasetArgs {
+    /// The reader's options.
+    pub fn options(&self) -> lucid_scene::dataset::OpenOptions {
+        lucid_scene::dataset::OpenOptions { holdout_every: self.holdout_every, downscale: self.downscale }
+    }
+}
+
 /// `lucid train nerf|splat|relight`.
 #[derive(Debug, Args)]
 pub struct TrainModelArgs {
-    /// Dataset folder (transforms_train.json, or transforms.json, and images).
+    /// Dataset folder: transforms_train.json (or transforms.json) and images, or a capture
+    /// (a COLMAP model in sparse/0 and images/).
     pub dataset: PathBuf,
     /// Output folder: checkpoint.lucid, config.toml, train_log.csv, run.json, eval results.
     #[arg(short, long)]
@@ -369,6 +391,9 @@ pub struct TrainModelArgs {
     /// Budget, resume and evaluation.
     #[command(flatten)]
     pub run: RunArgs,
+    /// Splits and scale of captures.
+    #[command(flatten)]
+    pub data: DatasetArgs,
 }
 
 /// What every `lucid train` shares: the budget, resuming, the output folder's handling.
@@ -433,6 +458,9 @@ pub struct EvalArgs {
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Splits and scale of captures (as the run was trained with).
+    #[command(flatten)]
+    pub data: DatasetArgs,
 }
 
 /// Camera rigs of `lucid gen`.
@@ -603,9 +631,13 @@ pub struct BenchArgs {
     /// (`all` does so in `out/bench` by default).
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// nerf, splat: the dataset folder (rendered there first if missing or incomplete).
-    #[arg(long, default_value = "out/bench/object")]
-    pub dataset: PathBuf,
+    /// nerf, splat: a dataset to benchmark on, used as it is (a rendered set or a capture);
+    /// without it, the built-in object set, rendered into out/bench/object first.
+    #[arg(long)]
+    pub dataset: Option<PathBuf>,
+    /// Splits and scale of a capture given with --dataset.
+    #[command(flatten)]
+    pub data: DatasetArgs,
     /// nerf, splat: configuration overrides, as for `lucid train nerf|splat --set`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
@@ -783,4 +815,7 @@ pub struct InfoArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Splits and scale of captures.
+    #[command(flatten)]
+    pub data: DatasetArgs,
 }

@@ -95,10 +95,10 @@ pub fn print_summary(summary: &RunSummary, what: &str, checkpoint: &Path) {
 }
 
 /// The dataset of a training command, with at least one training frame.
-pub fn open_dataset(root: &Path) -> anyhow::Result<Dataset> {
-    let dataset = Dataset::open(root).with_context(|| format!("reading dataset {}", root.display()))?;
+pub fn open_dataset(root: &Path, options: &lucid_scene::dataset::OpenOptions) -> anyhow::Result<Dataset> {
+    let dataset = Dataset::open_with(root, options).with_context(|| format!("reading dataset {}", root.display()))?;
     if dataset.frames(Split::Train).is_empty() {
-        bail!("{}: no training frames (transforms_train.json or transforms.json)", root.display());
+        bail!("{}: no training frames (transforms_train.json, transforms.json or a COLMAP model)", root.display());
     }
     Ok(dataset)
 }

@@ -106,6 +106,21 @@ impl Image {
         Self { width: self.width, height: self.height, pixels: self.pixels.iter().map(|&p| f(p)).collect() }
     }
 
+    /// The image resampled to `width × height` with a triangle filter whose support widens
+    /// with the reduction (so downscaling averages every source pixel, without aliasing), on
+    /// the linear values.
+    pub fn resized(&self, width: usize, height: usize) -> Self {
+        if (width, height) == (self.width, self.height) {
+            return self.clone();
+        }
+        let flat: Vec<f32> = self.pixels.iter().flatten().copied().collect();
+        let source = image::Rgba32FImage::from_raw(self.width as u32, self.height as u32, flat)
+            .expect("the buffer holds width × height pixels");
+        let out = image::imageops::resize(&source, width as u32, height as u32, image::imageops::FilterType::Triangle);
+        let pixels = out.into_raw().chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+        Self { width, height, pixels }
+    }
+
     /// Mean of each channel over all pixels (in `f64` to stay exact on large images).
     pub fn mean(&self) -> [f64; 4] {
         let mut sum = [0.0f64; 4];

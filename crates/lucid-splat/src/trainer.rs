@@ -79,11 +79,15 @@ pub fn camera_extent(data: &ImageSet) -> f32 {
     1.1 * radius.max(1e-3)
 }
 
-/// The initial cloud for `dataset`: its `points3d.ply` if present and enabled, otherwise
-/// random points in the scene box.
+/// The initial cloud for `dataset`: a capture's SfM points or the set's `points3d.ply` if
+/// present and enabled, otherwise random points in the scene box.
 pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset) -> Result<SplatCloud, String> {
     let ply = dataset.root.join("points3d.ply");
-    let mut cloud = if config.init.use_points && ply.exists() {
+    let mut cloud = if config.init.use_points && !dataset.points.is_empty() {
+        let points: Vec<(Vec3, [f32; 3])> =
+            dataset.points.iter().map(|p| (p.position, p.colour.map(|c| f32::from(c) / 255.0))).collect();
+        SplatCloud::from_points(&points)
+    } else if config.init.use_points && ply.exists() {
         let points = crate::ply::read_point_cloud(&ply).map_err(|e| e.to_string())?;
         SplatCloud::from_points(&points)
     } else {

@@ -31,8 +31,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         _ => {}
     }
     let loaded = LoadedModel::load(&args.checkpoint)?;
-    let dataset =
-        Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    let dataset = Dataset::open_with(&args.dataset, &args.data.options())
+        .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if dataset.frames(split).is_empty() {
         bail!("{}: the dataset has no {} split", args.dataset.display(), split.name());
     }

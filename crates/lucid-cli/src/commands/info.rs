@@ -13,8 +13,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     if lucid_burn::checkpoint::is_checkpoint(&checkpoint) {
         return checkpoint_info(&checkpoint, args.json);
     }
-    let dataset =
-        Dataset::open(&args.dataset).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
+    let dataset = Dataset::open_with(&args.dataset, &args.data.options())
+        .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     let summary = summarise(&dataset);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
@@ -45,6 +45,9 @@ fn print_text(dataset: &Dataset, summary: &Value) {
                 k["fov_x_degrees"].as_f64().unwrap_or(0.0),
                 k["fov_y_degrees"].as_f64().unwrap_or(0.0),
             );
+            if let Some(lens) = k["lens"].as_str().filter(|l| *l != "pinhole") {
+                println!("        lens {lens} (rays through its inverse)");
+            }
         }
         if let Some(d) = s["camera_distance_from_origin"].as_object() {
             println!(
@@ -66,6 +69,15 @@ fn print_text(dataset: &Dataset, summary: &Value) {
         if !extras.is_empty() {
             println!("        extras: {}", extras.join(", "));
         }
+    }
+    if let Some(capture) = summary["capture"].as_object() {
+        let n = &capture["normalisation"];
+        println!(
+            "  capture: {} sparse points; normalised about {} with scale {:.4} (the farthest camera at 1)",
+            capture["sparse_points"],
+            n["centre"],
+            n["scale"].as_f64().unwrap_or(0.0)
+        );
     }
     if let Some((lo, hi)) = dataset.camera_bounds() {
         println!(

@@ -27,7 +27,7 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
             Some(NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
         }
     };
-    let dataset = training::open_dataset(&args.dataset)?;
+    let dataset = training::open_dataset(&args.dataset, &args.data.options())?;
     if let Some(config) = &config {
         training::check_memory(&config.memory_estimate(training::training_pixels(&dataset).0))?;
     }

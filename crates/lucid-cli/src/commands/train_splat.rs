@@ -26,7 +26,7 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
             Some(SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
         }
     };
-    let dataset = training::open_dataset(&args.dataset)?;
+    let dataset = training::open_dataset(&args.dataset, &args.data.options())?;
     if let Some(config) = &config {
         let (pixels, largest) = training::training_pixels(&dataset);
         training::check_memory(&config.memory_estimate(config.init.random_points, pixels, largest))?;

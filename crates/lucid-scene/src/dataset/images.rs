@@ -29,7 +29,16 @@ pub struct ImageSet {
 impl ImageSet {
     /// Reads the frames' images in parallel. HDR files are clipped to `[0,1]` after encoding.
     pub fn load(frames: &[Frame]) -> Result<Self, lucid_image::ImageError> {
-        let images: Vec<_> = frames.par_iter().map(|f| lucid_image::read_image(&f.image_path)).collect();
+        let images: Vec<_> = frames
+            .par_iter()
+            .map(|f| {
+                let image = lucid_image::read_image(&f.image_path)?;
+                Ok(match f.resize_to {
+                    Some((w, h)) => image.resized(w as usize, h as usize),
+                    None => image,
+                })
+            })
+            .collect();
         let mut set = Self { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
         for (frame, image) in frames.iter().zip(images) {
             let image = image?;

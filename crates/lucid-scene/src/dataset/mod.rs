@@ -19,8 +19,15 @@
 //! ```
 //!
 //! Intrinsics may also be given per frame (nerfstudio writes them so), overriding the
-//! file-level ones. Other tools ignore our extra keys; we ignore theirs.
+//! file-level ones, and so may nerfstudio's lens (`camera_model`, `k1…k4`, `p1`, `p2`). Other
+//! tools ignore our extra keys; we ignore theirs, except lens keys, which are honoured or
+//! refused.
+//!
+//! A folder without transforms files but with a COLMAP model (`sparse/0/`) and `images/` is a
+//! capture ([`capture`]). A dataset without split files (a lone `transforms.json`, or a
+//! capture) holds out every 8th image by sorted name as its test split.
 
+pub mod capture;
 pub mod images;
 mod read;
 pub mod summary;
@@ -32,7 +39,34 @@ use glam::{Vec3, Vec4Swizzles};
 
 use crate::PinholeCamera;
 
+pub use capture::SceneNormalisation;
 pub use write::{FrameRecord, write_transforms};
+
+/// Choices made when opening a dataset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OpenOptions {
+    /// Without split files, every this-many-th image (by sorted name) is a test view; 0 holds
+    /// none out.
+    pub holdout_every: usize,
+    /// Read captures at 1/N of their size: from `images_N/` where it exists, else resized.
+    pub downscale: Option<u32>,
+}
+
+impl Default for OpenOptions {
+    /// The Mip-NeRF 360 / LLFF convention: every 8th image held out, full size.
+    fn default() -> Self {
+        Self { holdout_every: 8, downscale: None }
+    }
+}
+
+/// A point of a capture's sparse reconstruction, in scene coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SparsePoint {
+    /// Position.
+    pub position: Vec3,
+    /// Colour, 8-bit sRGB.
+    pub colour: [u8; 3],
+}
 
 /// The three splits of the Blender layout.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -107,6 +141,9 @@ pub struct Frame {
     pub camera: PinholeCamera,
     /// Optional extra data.
     pub extras: FrameExtras,
+    /// The size the image is resized to on reading (a capture read with `--downscale` and no
+    /// downscaled folder); the intrinsics already describe it.
+    pub resize_to: Option<(u32, u32)>,
 }
 
 /// The frames of one split, with the file they came from.
@@ -143,6 +180,11 @@ pub struct Dataset {
     pub root: PathBuf,
     /// The splits found, in train/val/test order.
     pub splits: Vec<SplitFrames>,
+    /// How a capture's coordinates were normalised (`None`: the files' coordinates are used
+    /// as they are).
+    pub normalisation: Option<SceneNormalisation>,
+    /// A capture's sparse points (empty for rendered sets).
+    pub points: Vec<SparsePoint>,
 }
 
 impl Dataset {
@@ -150,7 +192,12 @@ impl Dataset {
     /// and checks each frame: the pose is a finite 4×4 (or 3×4) matrix, the image exists and
     /// has the size the intrinsics say.
     pub fn open(root: impl AsRef<Path>) -> Result<Self, DatasetError> {
-        read::open(root.as_ref())
+        read::open(root.as_ref(), &OpenOptions::default())
+    }
+
+    /// [`Dataset::open`] with choices for split-less datasets and captures.
+    pub fn open_with(root: impl AsRef<Path>, options: &OpenOptions) -> Result<Self, DatasetError> {
+        read::open(root.as_ref(), options)
     }
 
     /// Reads one transforms file as the given split.
@@ -206,8 +253,11 @@ pub enum DatasetError {
         /// What is wrong.
         reason: String,
     },
+    /// A COLMAP model could not be read.
+    #[error(transparent)]
+    Colmap(#[from] crate::colmap::ColmapError),
     /// No transforms file in the folder.
-    #[error("{}: not a dataset: no transforms_train.json, transforms_val.json, transforms_test.json or transforms.json", path.display())]
+    #[error("{}: not a dataset: no transforms_train.json, transforms_val.json, transforms_test.json or transforms.json, and no COLMAP model (sparse/0/cameras.bin or .txt)", path.display())]
     NotADataset {
         /// The folder.
         path: PathBuf,

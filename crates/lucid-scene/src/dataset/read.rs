@@ -7,14 +7,14 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 use serde_json::{Map, Value};
 
-use super::{Dataset, DatasetError, Frame, FrameExtras, SceneBounds, Split, SplitFrames};
+use super::{Dataset, DatasetError, Frame, FrameExtras, OpenOptions, SceneBounds, Split, SplitFrames, capture};
 use crate::{Intrinsics, LensDistortion, PinholeCamera};
 
 /// Extensions tried, in order, when a `file_path` has none (the Blender set writes
 /// `./train/r_0` for `train/r_0.png`).
 const IMAGE_EXTENSIONS: [&str; 7] = ["png", "exr", "jpg", "jpeg", "PNG", "JPG", "JPEG"];
 
-pub(super) fn open(root: &Path) -> Result<Dataset, DatasetError> {
+pub(super) fn open(root: &Path, options: &OpenOptions) -> Result<Dataset, DatasetError> {
     if !root.is_dir() {
         let source = if root.exists() {
             std::io::Error::other("is not a directory")
@@ -30,17 +30,30 @@ pub(super) fn open(root: &Path) -> Result<Dataset, DatasetError> {
             files.push(parse(&json, split)?);
         }
     }
+    let mut lone = false;
     if files.is_empty() {
         let single = root.join("transforms.json");
         if !single.is_file() {
-            return Err(DatasetError::NotADataset { path: root.to_path_buf() });
+            return match crate::colmap::find_model(root) {
+                Some(model) => capture::open(root, &model, options),
+                None => Err(DatasetError::NotADataset { path: root.to_path_buf() }),
+            };
         }
         files.push(parse(&single, Split::Train)?);
+        lone = true;
     }
     let extension = shared_extension(&files);
-    let splits: Vec<SplitFrames> = files.iter().map(|f| f.read(extension)).collect::<Result<_, _>>()?;
+    let mut splits: Vec<SplitFrames> = files.iter().map(|f| f.read(extension)).collect::<Result<_, _>>()?;
+    if lone {
+        // No split files: hold out by sorted name, as for a capture.
+        let single = splits.remove(0);
+        let mut frames = single.frames;
+        frames.sort_by(|a, b| a.file_path.cmp(&b.file_path));
+        splits = capture::held_out_splits(frames, options.holdout_every, &single.source);
+        splits.iter_mut().for_each(|s| s.bounds = single.bounds);
+    }
     check_camera_centres(&splits)?;
-    Ok(Dataset { root: root.to_path_buf(), splits })
+    Ok(Dataset { root: root.to_path_buf(), splits, normalisation: None, points: Vec::new() })
 }
 
 /// Reads and checks one file; see [`Dataset::open`].
@@ -62,7 +75,7 @@ const MAX_CENTRE_SPREAD: f32 = 1000.0;
 /// among cameras a few units apart), which would otherwise stretch the scene's bounds and
 /// learning rates until training yields NaN. "Far" is measured against the median distance of
 /// the cameras from their per-axis median, so a few broken poses cannot hide themselves.
-fn check_camera_centres(splits: &[SplitFrames]) -> Result<(), DatasetError> {
+pub(super) fn check_camera_centres(splits: &[SplitFrames]) -> Result<(), DatasetError> {
     let centres: Vec<Vec3> =
         splits.iter().flat_map(|s| s.frames.iter().map(|f| f.camera.camera_to_world.w_axis.xyz())).collect();
     if centres.len() < 3 {
@@ -89,7 +102,11 @@ fn check_camera_centres(splits: &[SplitFrames]) -> Result<(), DatasetError> {
             if d > MAX_CENTRE_SPREAD * typical {
                 return Err(DatasetError::Invalid {
                     path: s.source.clone(),
-                    key: format!("frames[{i}].transform_matrix"),
+                    key: if s.source.extension().is_some_and(|e| e == "json") {
+                        format!("frames[{i}].transform_matrix")
+                    } else {
+                        format!("image {}", f.file_path)
+                    },
                     reason: format!(
                         "the camera stands at {}, {d:.3e} from the cameras' median centre, while the typical camera is {typical:.3e} from it: a broken pose?",
                         f.camera.camera_to_world.w_axis.xyz()
@@ -280,7 +297,7 @@ impl Context<'_> {
         if extras.aperture_radius.is_some_and(|r| r < 0.0) {
             return Err(self.invalid(&format!("{key}.aperture_radius"), "must not be negative"));
         }
-        Ok(Frame { file_path, image_path, camera: PinholeCamera::new(intrinsics, pose), extras })
+        Ok(Frame { file_path, image_path, camera: PinholeCamera::new(intrinsics, pose), extras, resize_to: None })
     }
 
     /// The image a `file_path` names: as written if that is a file, else with the dataset's

@@ -10,7 +10,23 @@ use super::{Dataset, SceneBounds, SplitFrames};
 pub fn summarise(dataset: &Dataset) -> Value {
     let splits: Vec<Value> = dataset.splits.iter().map(split_summary).collect();
     let bounds = dataset.camera_bounds().map(|(lo, hi)| json!({"min": lo.to_array(), "max": hi.to_array()}));
-    json!({ "root": dataset.root.display().to_string(), "splits": splits, "camera_centres": bounds })
+    let capture = dataset.normalisation.map(|n| {
+        json!({
+            "sparse_points": dataset.points.len(),
+            "normalisation": { "centre": n.centre.to_array(), "scale": n.scale, "rotation_xyzw": n.rotation.to_array() },
+        })
+    });
+    json!({ "root": dataset.root.display().to_string(), "splits": splits, "camera_centres": bounds, "capture": capture })
+}
+
+/// The lens of a camera, as the file named it.
+fn lens_name(k: &crate::Intrinsics) -> &'static str {
+    match k.distortion {
+        crate::LensDistortion::None => "pinhole",
+        crate::LensDistortion::OpenCv { rational: [0.0, 0.0, 0.0], .. } => "opencv",
+        crate::LensDistortion::OpenCv { .. } => "full_opencv",
+        crate::LensDistortion::Fisheye { .. } => "opencv_fisheye",
+    }
 }
 
 fn split_summary(split: &SplitFrames) -> Value {
@@ -29,6 +45,7 @@ fn split_summary(split: &SplitFrames) -> Value {
         "intrinsics": first.map(|k| json!({
             "fx": k.fx, "fy": k.fy, "cx": k.cx, "cy": k.cy,
             "fov_x_degrees": k.fov_x().to_degrees(), "fov_y_degrees": k.fov_y().to_degrees(),
+            "lens": lens_name(&k),
         })),
         "camera_distance_from_origin": if distances.is_empty() { Value::Null } else { json!({
             "min": distances.iter().cloned().fold(f32::INFINITY, f32::min),

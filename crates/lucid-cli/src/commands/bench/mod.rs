@@ -46,17 +46,58 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The dataset a NeRF or splat benchmark trains on.
+pub struct BenchDataset {
+    /// Its folder.
+    pub root: std::path::PathBuf,
+    /// The built-in set, rendered there first if missing or incomplete; else a user's dataset,
+    /// read as it is and never written to.
+    pub built_in: bool,
+    /// How a split-less dataset or capture is read.
+    pub options: lucid_scene::dataset::OpenOptions,
+}
+
+impl BenchDataset {
+    fn of(args: &BenchArgs) -> Self {
+        match &args.dataset {
+            Some(root) => Self { root: root.clone(), built_in: false, options: args.data.options() },
+            None => {
+                let root =
+                    std::path::PathBuf::from(if args.quick { "out/bench/object.quick" } else { "out/bench/object" });
+                Self { root, built_in: true, options: Default::default() }
+            }
+        }
+    }
+
+    /// Renders the built-in set if needed, then opens the dataset.
+    pub fn open(&self, quick: bool) -> anyhow::Result<lucid_scene::Dataset> {
+        use anyhow::Context;
+        if self.built_in {
+            crate::progress::with_bar("rendering", |progress| {
+                lucid_datasets_gen::builtin::ensure_benchmark_set(&self.root, quick, progress)
+            })
+            .with_context(|| format!("generating the benchmark dataset in {}", self.root.display()))?;
+        }
+        let dataset = lucid_scene::Dataset::open_with(&self.root, &self.options)
+            .with_context(|| format!("reading dataset {}", self.root.display()))?;
+        if dataset.frames(lucid_scene::Split::Train).is_empty() || dataset.frames(lucid_scene::Split::Test).is_empty() {
+            anyhow::bail!("{}: a benchmark needs training and test views", self.root.display());
+        }
+        Ok(dataset)
+    }
+}
+
 fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
     Ok(match target {
         BenchTarget::Trace => bench_trace(args.quick)?,
         BenchTarget::Nerf => nerf::run(nerf::NerfBench {
-            dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
+            dataset: BenchDataset::of(args),
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
         BenchTarget::Splat => splat::run(splat::SplatBench {
-            dataset: if args.quick { args.dataset.with_extension("quick") } else { args.dataset.clone() },
+            dataset: BenchDataset::of(args),
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,

@@ -4,24 +4,21 @@
 //! times (30 s, 1, 2, 5 and 10 min of training; evaluation time is not counted), then prints
 //! the curve, the training throughput, the time per phase, and the render time of one view.
 
-use std::path::PathBuf;
-
 use anyhow::Context;
 use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport, Trainable};
-use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_nerf::data::ImageSet;
 use lucid_nerf::profile::time_kernels;
 use lucid_nerf::run::NerfRun;
 use lucid_nerf::trainer::{NerfTrainer, StepTimings};
-use lucid_scene::{Dataset, Split};
+use lucid_scene::Split;
 use serde_json::json;
 
 use crate::budget_curve::BudgetCurve;
 
 /// Options of the NeRF benchmark.
 pub struct NerfBench {
-    /// Dataset folder (generated there if missing).
-    pub dataset: PathBuf,
+    /// The dataset.
+    pub dataset: super::BenchDataset,
     /// Smoke version: tiny dataset, 20 s of training.
     pub quick: bool,
     /// Configuration overrides (`--set`).
@@ -31,9 +28,7 @@ pub struct NerfBench {
 }
 
 pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
-    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
-        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
-    let dataset = Dataset::open(&bench.dataset)?;
+    let dataset = bench.dataset.open(bench.quick)?;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;

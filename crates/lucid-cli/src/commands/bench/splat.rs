@@ -5,13 +5,11 @@
 //! forward+backward splat-pixel blends per second per core, and images per second at 200×200
 //! and 800×800.
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
 use glam::Vec3;
 use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport};
-use lucid_datasets_gen::builtin::ensure_benchmark_set;
 use lucid_scene::dataset::images::{ImageSet, scene_box};
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
 use lucid_splat::config::{InitConfig, SplatConfig};
@@ -26,8 +24,8 @@ use crate::budget_curve::BudgetCurve;
 
 /// Options of the splat benchmark.
 pub struct SplatBench {
-    /// Dataset folder (generated there if missing).
-    pub dataset: PathBuf,
+    /// The dataset.
+    pub dataset: super::BenchDataset,
     /// Smoke version: tiny dataset, 20 s of training, a small cloud.
     pub quick: bool,
     /// Configuration overrides (`--set`).
@@ -75,9 +73,7 @@ fn train_run<'a>(
 }
 
 pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
-    crate::progress::with_bar("rendering", |progress| ensure_benchmark_set(&bench.dataset, bench.quick, progress))
-        .with_context(|| format!("generating the benchmark dataset in {}", bench.dataset.display()))?;
-    let dataset = Dataset::open(&bench.dataset)?;
+    let dataset = bench.dataset.open(bench.quick)?;
     // The rasterizer projects through pinholes: distorted captures train on undistorted crops
     // (and are scored on their own images through the renderer's warp).
     let loaded = ImageSet::load(dataset.frames(Split::Train))?;
