@@ -632,7 +632,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// nerf, splat: a dataset to benchmark on, used as it is (a rendered set or a capture);
-    /// without it, the built-in object set, rendered into out/bench/object first.
+    /// where the folder does not exist, the built-in object set is rendered into it (default
+    /// out/bench/object).
     #[arg(long)]
     pub dataset: Option<PathBuf>,
     /// Splits and scale of a capture given with --dataset.

@@ -48,7 +48,8 @@
 //!
 //! [[lights]]
 //! type = "environment"           # radiance = [r, g, b] or file = "sky.exr" (lat-long, relative
-//! file = "sky.exr"               # to the scene file), with scale and rotate = [x, y, z] degrees
+//! file = "sky.exr"               # to the scene file) or sky = { zenith = [..], horizon = [..],
+//!                                # ground = [..] }, with scale and rotate = [x, y, z] degrees
 //! ```
 
 use std::collections::BTreeMap;
@@ -312,6 +313,7 @@ enum LightSection {
     Environment {
         radiance: Option<[f32; 3]>,
         file: Option<String>,
+        sky: Option<SkySection>,
         #[serde(default = "default_scale")]
         scale: f32,
         #[serde(default)]
@@ -321,6 +323,30 @@ enum LightSection {
 
 fn default_scale() -> f32 {
     1.0
+}
+
+/// A procedural sky: radiance blends from `horizon` to `zenith` above the horizon and is
+/// `ground` below it.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SkySection {
+    zenith: [f32; 3],
+    horizon: [f32; 3],
+    ground: [f32; 3],
+}
+
+impl SkySection {
+    /// The sky as a lat-long map (+Z up, the mapping of [`EnvironmentMap`]).
+    fn image(&self) -> lucid_image::Image {
+        let (w, h) = (256, 128);
+        let (zenith, horizon, ground) = (Vec3::from(self.zenith), Vec3::from(self.horizon), Vec3::from(self.ground));
+        lucid_image::Image::from_fn(w, h, |_, y| {
+            let cos_theta = (std::f32::consts::PI * (y as f32 + 0.5) / h as f32).cos();
+            // A square root keeps the bright band near the horizon narrow, as in a clear sky.
+            let c = if cos_theta > 0.0 { horizon.lerp(zenith, cos_theta.sqrt()) } else { ground };
+            [c.x, c.y, c.z, 1.0]
+        })
+    }
 }
 
 /// A loaded scene with its camera and render settings.
@@ -762,16 +788,28 @@ impl Builder<'_> {
                 }
                 Light::Directional { direction: d, irradiance: self.colour(&format!("{key}.irradiance"), *irradiance)? }
             }
-            LightSection::Environment { radiance, file, scale, rotate } => {
+            LightSection::Environment { radiance, file, sky, scale, rotate } => {
                 if !(scale.is_finite() && *scale >= 0.0) {
                     return Err(self.invalid(format!("{key}.scale"), "must be a non-negative number"));
                 }
                 self.finite(&format!("{key}.rotate"), rotate)?;
-                match (radiance, file) {
-                    (Some(r), None) => {
+                match (radiance, file, sky) {
+                    (None, None, Some(sky)) => {
+                        for (name, c) in [("zenith", sky.zenith), ("horizon", sky.horizon), ("ground", sky.ground)] {
+                            self.colour(&format!("{key}.sky.{name}"), c)?;
+                        }
+                        let rot = Quat::from_euler(
+                            EulerRot::ZYX,
+                            rotate[2].to_radians(),
+                            rotate[1].to_radians(),
+                            rotate[0].to_radians(),
+                        );
+                        Light::EnvironmentMap(Box::new(EnvironmentMap::new(&sky.image(), *scale, Mat3::from_quat(rot))))
+                    }
+                    (Some(r), None, None) => {
                         Light::ConstantEnvironment { radiance: self.colour(&format!("{key}.radiance"), *r)? * *scale }
                     }
-                    (None, Some(f)) => {
+                    (None, Some(f), None) => {
                         let path = self.path.parent().unwrap_or(Path::new(".")).join(f);
                         let image = lucid_image::read_image(&path)
                             .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
@@ -789,7 +827,7 @@ impl Builder<'_> {
                         );
                         Light::EnvironmentMap(Box::new(EnvironmentMap::new(&image, *scale, Mat3::from_quat(rot))))
                     }
-                    _ => return Err(self.invalid(key, "an environment needs exactly one of radiance or file")),
+                    _ => return Err(self.invalid(key, "an environment needs exactly one of radiance, file or sky")),
                 }
             }
         })

@@ -50,8 +50,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 pub struct BenchDataset {
     /// Its folder.
     pub root: std::path::PathBuf,
-    /// The built-in set, rendered there first if missing or incomplete; else a user's dataset,
-    /// read as it is and never written to.
+    /// The built-in set, rendered there first if missing or incomplete; else a dataset read as
+    /// it is and never written to.
     pub built_in: bool,
     /// How a split-less dataset or capture is read.
     pub options: lucid_scene::dataset::OpenOptions,
@@ -60,7 +60,12 @@ pub struct BenchDataset {
 impl BenchDataset {
     fn of(args: &BenchArgs) -> Self {
         match &args.dataset {
-            Some(root) => Self { root: root.clone(), built_in: false, options: args.data.options() },
+            // A folder that is not there yet (or a generation of Lucid's cut short) gets the
+            // built-in set; any dataset already there is benchmarked as it is.
+            Some(root) => {
+                let unfinished = root.join("dataset.toml").is_file() && lucid_scene::Dataset::open(root).is_err();
+                Self { root: root.clone(), built_in: !root.exists() || unfinished, options: args.data.options() }
+            }
             None => {
                 let root =
                     std::path::PathBuf::from(if args.quick { "out/bench/object.quick" } else { "out/bench/object" });
