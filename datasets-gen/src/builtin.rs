@@ -13,17 +13,18 @@ use crate::rig::{OrbitRig, Rig};
 use crate::writer::{DatasetSpec, GenError, Shard, generate_dataset};
 
 /// The scenes of `configs/scenes/`, so `lucid gen NAME` works anywhere.
-const SCENES: [(&str, &str); 6] = [
+const SCENES: [(&str, &str); 7] = [
     ("cornell", include_str!("../../configs/scenes/cornell.toml")),
     ("spheres", include_str!("../../configs/scenes/spheres.toml")),
     ("materials", include_str!("../../configs/scenes/materials.toml")),
     ("media", include_str!("../../configs/scenes/media.toml")),
     ("object", include_str!("../../configs/scenes/object.toml")),
     ("studio", include_str!("../../configs/scenes/studio.toml")),
+    ("garden", include_str!("../../configs/scenes/garden.toml")),
 ];
 
 /// The built-in scenes' names.
-pub const SCENE_NAMES: [&str; 6] = ["cornell", "spheres", "materials", "media", "object", "studio"];
+pub const SCENE_NAMES: [&str; 7] = ["cornell", "spheres", "materials", "media", "object", "studio", "garden"];
 
 /// A scene by file path, or by built-in name.
 pub fn load_named_scene(scene: &str) -> Result<LoadedScene, GenError> {

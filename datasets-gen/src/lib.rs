@@ -9,6 +9,7 @@
 pub mod analytic;
 pub mod brackets;
 pub mod builtin;
+pub mod capture;
 pub mod lightfield;
 pub mod olat;
 pub mod path_traced;

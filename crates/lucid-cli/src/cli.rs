@@ -479,6 +479,10 @@ pub enum RigArg {
     /// at a time, linear HDR), plus the validation and test views under held-out lights and
     /// environment maps.
     Olat,
+    /// A capture: photographs from a hand-held ring (`images/`) with the sparse COLMAP model
+    /// structure-from-motion would make of them (`sparse/0/`), for unbounded scenes such as
+    /// `garden`.
+    Capture,
 }
 
 /// Camera response curves of the brackets rig.
@@ -567,6 +571,27 @@ pub struct GenArgs {
     /// (each on its own): held-out light directions for evaluating relighting models.
     #[arg(long, default_value_t = 8)]
     pub held_out_lights: usize,
+    /// Capture rig: number of photographs (every 8th by name is held out when training).
+    #[arg(long, default_value_t = 120)]
+    pub images: usize,
+    /// Capture rig: image height in pixels (default: --res, square).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Capture rig: the lens's radial distortion (COLMAP's SIMPLE_RADIAL k); 0 is a pinhole.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub k1: f32,
+    /// Capture rig: standard deviation of the orientation error SfM leaves, in degrees.
+    #[arg(long, default_value_t = 0.0)]
+    pub pose_noise: f32,
+    /// Capture rig: standard deviation of the position error, as a fraction of --radius.
+    #[arg(long, default_value_t = 0.0)]
+    pub position_noise: f32,
+    /// Capture rig: standard deviation of the sparse points' position error, world units.
+    #[arg(long, default_value_t = 0.0)]
+    pub point_noise: f32,
+    /// Capture rig: sparse points to aim for.
+    #[arg(long, default_value_t = 20000)]
+    pub points: usize,
 }
 
 /// `lucid refocus`.

@@ -78,14 +78,18 @@ impl SplatCloud {
     /// `n` points uniformly in the box `lo..hi` with random colours (the fallback when a
     /// dataset has no point cloud), initialised as [`Self::from_points`].
     pub fn random_in_box(n: usize, lo: Vec3, hi: Vec3, seed: u64) -> Self {
+        Self::from_points(&Self::random_points_in_box(n, lo, hi, seed))
+    }
+
+    /// The points of [`Self::random_in_box`].
+    pub fn random_points_in_box(n: usize, lo: Vec3, hi: Vec3, seed: u64) -> Vec<(Vec3, [f32; 3])> {
         let mut rng = Rng::new(seed, 0x5b1a7);
-        let points: Vec<(Vec3, [f32; 3])> = (0..n)
+        (0..n)
             .map(|_| {
                 let u = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
                 (lo + (hi - lo) * u, [rng.uniform(), rng.uniform(), rng.uniform()])
             })
-            .collect();
-        Self::from_points(&points)
+            .collect()
     }
 
     /// Keeps the Gaussians for which `keep` is true, in order.

@@ -55,11 +55,15 @@ pub struct InitConfig {
     pub random_points: usize,
     /// Initial opacity.
     pub opacity: f32,
+    /// Where the training images have no transparent background (captures), this many points
+    /// are spread over a far sphere for the sky and distant scenery (those no image sees are
+    /// dropped); 0: none.
+    pub background_points: usize,
 }
 
 impl Default for InitConfig {
     fn default() -> Self {
-        Self { use_points: true, random_points: 100_000, opacity: 0.1 }
+        Self { use_points: true, random_points: 100_000, opacity: 0.1, background_points: 10_000 }
     }
 }
 

@@ -72,16 +72,26 @@ fn sigmoid(x: f32) -> f32 {
 }
 
 /// Clones, splits and prunes `cloud` (and its Adam `moments`) from `stats`.
+/// How large the scene is: sizes are judged against it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneExtent {
+    /// The reference's extent (1.1 × the cameras' radius).
+    pub extent: f32,
+    /// The centre of the scene.
+    pub centre: Vec3,
+}
+
 /// `prune_oversized` turns on the screen- and world-size pruning.
 pub fn densify_and_prune(
     cloud: &mut SplatCloud,
     moments: &mut [Option<HostMoments>; 6],
     stats: &DensifyStats,
     config: &DensifyConfig,
-    extent: f32,
+    scene: SceneExtent,
     prune_oversized: bool,
     rng: &mut Rng,
 ) -> DensifyReport {
+    let SceneExtent { extent, centre } = scene;
     let n = cloud.len();
     let threshold_size = config.percent_dense * extent;
     let mut candidates: Vec<(f32, usize)> = (0..n)
@@ -133,7 +143,14 @@ pub fn densify_and_prune(
             }
             if prune_oversized {
                 let screen = matches!(s, Source::Keep(_)) && stats.max_radius[i] > config.max_screen_size;
-                let world = log_scale.exp().max_element() > config.max_world_size * extent;
+                // Judged by angular size where a Gaussian lies beyond the cameras' extent (the
+                // far background of a capture): the same limit as seen from the cameras.
+                let mean = match s {
+                    Source::Keep(i) | Source::Clone(i) => Vec3::from_slice(row(&cloud.means, 3, *i)),
+                    Source::Child(_, m, _) => *m,
+                };
+                let reach = (mean - centre).length().max(extent) / extent;
+                let world = log_scale.exp().max_element() > config.max_world_size * extent * reach;
                 return !(screen || world);
             }
             true
@@ -213,7 +230,15 @@ mod tests {
         stats.record(&[1e-3, 0.0, 1e-3, 0.0, 1e-6, 0.0, 0.0, 0.0], [3.0, 3.0, 3.0, 3.0].into_iter());
         let config = DensifyConfig::default();
         let mut rng = Rng::new(1, 2);
-        let r = densify_and_prune(&mut c, &mut moments, &stats, &config, 1.0, false, &mut rng);
+        let r = densify_and_prune(
+            &mut c,
+            &mut moments,
+            &stats,
+            &config,
+            SceneExtent { extent: 1.0, centre: Vec3::ZERO },
+            false,
+            &mut rng,
+        );
         assert_eq!(r, DensifyReport { cloned: 1, split: 1, pruned: 1, total: 5 });
         c.validate().unwrap();
         // Rows: kept 0, kept 2, clone of 0, two children of 1.
@@ -236,7 +261,15 @@ mod tests {
         let mut stats = DensifyStats::new(4);
         stats.record(&[1e-3, 0.0, 2e-3, 0.0, 0.0, 0.0, 0.0, 0.0], [3.0; 4].into_iter());
         let config = DensifyConfig { max_gaussians: 5, ..Default::default() };
-        let r = densify_and_prune(&mut c, &mut moments, &stats, &config, 1.0, false, &mut Rng::new(1, 2));
+        let r = densify_and_prune(
+            &mut c,
+            &mut moments,
+            &stats,
+            &config,
+            SceneExtent { extent: 1.0, centre: Vec3::ZERO },
+            false,
+            &mut Rng::new(1, 2),
+        );
         assert_eq!((r.cloned, r.split), (0, 1));
     }
 }

@@ -5,6 +5,7 @@
 //! checked against finite differences (`tests/finite_diff.rs`). [`render`] chains them for
 //! one view. The kernels are plain Rust over slices, parallel over splats and tiles with rayon.
 
+pub mod background;
 pub mod blend;
 pub mod camera;
 pub mod checkpoint;

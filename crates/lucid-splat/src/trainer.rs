@@ -20,7 +20,7 @@ use lucid_scene::sampling::{Rng, mix};
 use crate::camera::SplatCamera;
 use crate::cloud::SplatCloud;
 use crate::config::{Background, SplatConfig};
-use crate::densify::{DensifyReport, DensifyStats, densify_and_prune, reset_opacity};
+use crate::densify::{DensifyReport, DensifyStats, SceneExtent, densify_and_prune, reset_opacity};
 use crate::loss::photometric_loss;
 use crate::model::{SplatModel, SplatOptimizer};
 use crate::ops::{SplatRenderArgs, render_splats};
@@ -80,20 +80,25 @@ pub fn camera_extent(data: &ImageSet) -> f32 {
 }
 
 /// The initial cloud for `dataset`: a capture's SfM points or the set's `points3d.ply` if
-/// present and enabled, otherwise random points in the scene box.
-pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset) -> Result<SplatCloud, String> {
+/// present and enabled, otherwise random points in the scene box; where the training images
+/// `data` have no transparent background, also a far sphere of background points
+/// ([`crate::background`]).
+pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset, data: &ImageSet) -> Result<SplatCloud, String> {
     let ply = dataset.root.join("points3d.ply");
-    let mut cloud = if config.init.use_points && !dataset.points.is_empty() {
-        let points: Vec<(Vec3, [f32; 3])> =
-            dataset.points.iter().map(|p| (p.position, p.colour.map(|c| f32::from(c) / 255.0))).collect();
-        SplatCloud::from_points(&points)
+    let mut points: Vec<(Vec3, [f32; 3])> = if config.init.use_points && !dataset.points.is_empty() {
+        dataset.points.iter().map(|p| (p.position, p.colour.map(|c| f32::from(c) / 255.0))).collect()
     } else if config.init.use_points && ply.exists() {
-        let points = crate::ply::read_point_cloud(&ply).map_err(|e| e.to_string())?;
-        SplatCloud::from_points(&points)
+        crate::ply::read_point_cloud(&ply).map_err(|e| e.to_string())?
     } else {
         let (lo, hi) = scene_box(dataset);
-        SplatCloud::random_in_box(config.init.random_points, lo, hi, config.train.seed)
+        SplatCloud::random_points_in_box(config.init.random_points, lo, hi, config.train.seed)
     };
+    if config.init.background_points > 0 && crate::background::is_opaque(data) {
+        let (lo, hi) = scene_box(dataset);
+        let centre = if dataset.normalisation.is_some() { Vec3::ZERO } else { 0.5 * (lo + hi) };
+        points.extend(crate::background::background_points(data, centre, config.init.background_points));
+    }
+    let mut cloud = SplatCloud::from_points(&points);
     let o = crate::cloud::logit(config.init.opacity);
     cloud.opacities.iter_mut().for_each(|v| *v = o);
     Ok(cloud)
@@ -269,9 +274,9 @@ impl SplatTrainer {
     fn densify(&mut self, rng: &mut Rng) -> DensifyReport {
         let stats = std::mem::take(&mut self.stats);
         let prune_oversized = self.schedule > self.config.densify.opacity_reset_every;
-        let (config, extent) = (self.config.densify, self.extent);
+        let (config, extent, centre) = (self.config.densify, self.extent, self.centre);
         let report = self.edit_on_host(|cloud, moments| {
-            densify_and_prune(cloud, moments, &stats, &config, extent, prune_oversized, rng)
+            densify_and_prune(cloud, moments, &stats, &config, SceneExtent { extent, centre }, prune_oversized, rng)
         });
         self.stats = DensifyStats::new(self.model.len());
         report

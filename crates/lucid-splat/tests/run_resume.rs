@@ -33,7 +33,7 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
     config.densify.until = 14;
     config.densify.opacity_reset_every = 10;
     config.densify.grad_threshold = 1e-7;
-    let cloud = initial_cloud(&config, &dataset).unwrap();
+    let cloud = initial_cloud(&config, &dataset, &data).unwrap();
     let (lo, hi) = scene_box(&dataset);
     let device = lucid_burn::backend::training_device();
     let fresh = || SplatTrainer::new(config.clone(), &cloud, &data, (lo + hi) * 0.5, device.clone());

@@ -39,7 +39,7 @@ fn geometry_stage(
         let loaded = lucid_splat::checkpoint::load(&path, &device).context("resuming the geometry")?;
         (loaded.trainer, loaded.header.elapsed)
     } else {
-        let cloud = initial_cloud(&config.geometry, dataset)
+        let cloud = initial_cloud(&config.geometry, dataset, images)
             .map_err(anyhow::Error::msg)
             .with_context(|| format!("initialising from {}", dataset.root.display()))?;
         let (lo, hi) = scene_box(dataset);

@@ -45,7 +45,7 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
             (loaded.trainer, loaded.header.elapsed)
         }
         Some(config) => {
-            let cloud = initial_cloud(&config, &dataset)
+            let cloud = initial_cloud(&config, &dataset, &data)
                 .map_err(anyhow::Error::msg)
                 .with_context(|| format!("initialising from {}", dataset.root.display()))?;
             let (lo, hi) = scene_box(&dataset);

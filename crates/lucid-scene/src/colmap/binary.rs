@@ -154,9 +154,10 @@ pub(super) fn points(path: &Path) -> Result<Vec<ColmapPoint>, ColmapError> {
     Ok(points)
 }
 
-/// Writers for tests and the generator: the same records, so a model round-trips.
+/// Writers for the generator's captures (and tests): the records COLMAP writes.
 pub mod write {
     use super::*;
+    use glam::DVec2;
 
     /// `cameras.bin` bytes.
     pub fn cameras(cameras: &BTreeMap<u32, ColmapCamera>) -> Vec<u8> {
@@ -171,33 +172,41 @@ pub mod write {
         out
     }
 
-    /// `images.bin` bytes, without 2D observations.
-    pub fn images(images: &[ColmapImage]) -> Vec<u8> {
+    /// `images.bin` bytes, with each image's observations `(pixel, point id)` (−1: none).
+    pub fn images(images: &[ColmapImage], observations: &[Vec<(DVec2, i64)>]) -> Vec<u8> {
         let mut out = (images.len() as u64).to_le_bytes().to_vec();
-        for im in images {
+        for (i, im) in images.iter().enumerate() {
             out.extend(im.id.to_le_bytes());
             let q = im.rotation;
             [q.w, q.x, q.y, q.z].iter().chain(&im.translation.to_array()).for_each(|v| out.extend(v.to_le_bytes()));
             out.extend(im.camera_id.to_le_bytes());
             out.extend(im.name.as_bytes());
             out.push(0);
-            out.extend(0u64.to_le_bytes());
+            let seen = observations.get(i).map(Vec::as_slice).unwrap_or(&[]);
+            out.extend((seen.len() as u64).to_le_bytes());
+            for (p, id) in seen {
+                out.extend(p.x.to_le_bytes());
+                out.extend(p.y.to_le_bytes());
+                out.extend(id.to_le_bytes());
+            }
         }
         out
     }
 
-    /// `points3D.bin` bytes, with tracks of the recorded length pointing at image 1.
-    pub fn points(points: &[ColmapPoint]) -> Vec<u8> {
+    /// `points3D.bin` bytes; point `i` gets id `i + 1` and the track `(image id, observation
+    /// index)` of `tracks[i]`.
+    pub fn points(points: &[ColmapPoint], tracks: &[Vec<(u32, u32)>]) -> Vec<u8> {
         let mut out = (points.len() as u64).to_le_bytes().to_vec();
         for (i, p) in points.iter().enumerate() {
             out.extend((i as u64 + 1).to_le_bytes());
             p.position.to_array().iter().for_each(|v| out.extend(v.to_le_bytes()));
             out.extend(p.colour);
             out.extend(p.error.to_le_bytes());
-            out.extend((p.track_length as u64).to_le_bytes());
-            for k in 0..p.track_length {
-                out.extend(1u32.to_le_bytes());
-                out.extend((k as u32).to_le_bytes());
+            let track = tracks.get(i).map(Vec::as_slice).unwrap_or(&[]);
+            out.extend((track.len() as u64).to_le_bytes());
+            for (image, index) in track {
+                out.extend(image.to_le_bytes());
+                out.extend(index.to_le_bytes());
             }
         }
         out

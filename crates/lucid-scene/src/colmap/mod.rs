@@ -6,7 +6,7 @@
 //! `src/colmap/scene/reconstruction_io.cc`), and no maintained Rust crate reads it.
 
 pub mod binary;
-pub mod text;
+mod text;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -45,6 +45,11 @@ pub const CAMERA_MODELS: [CameraModel; 12] = [
 ];
 
 impl CameraModel {
+    /// The model of this name.
+    pub fn named(name: &str) -> Option<Self> {
+        Self::by_name(name)
+    }
+
     fn by_id(id: i32) -> Option<Self> {
         CAMERA_MODELS.iter().copied().find(|m| m.id == id)
     }
@@ -70,6 +75,35 @@ pub struct ColmapCamera {
 }
 
 impl ColmapCamera {
+    /// The COLMAP camera that describes `k`: the simplest model holding its lens (SIMPLE_*
+    /// where the pixels are square).
+    pub fn from_intrinsics(id: u32, k: &Intrinsics) -> Result<Self, String> {
+        let (fx, fy, cx, cy) = (f64::from(k.fx), f64::from(k.fy), f64::from(k.cx), f64::from(k.cy));
+        let square = k.fx == k.fy;
+        let (name, params) = match k.distortion {
+            LensDistortion::None if square => ("SIMPLE_PINHOLE", vec![fx, cx, cy]),
+            LensDistortion::None => ("PINHOLE", vec![fx, fy, cx, cy]),
+            LensDistortion::OpenCv {
+                radial: [k1, 0.0, 0.0, 0.0],
+                rational: [0.0, 0.0, 0.0],
+                tangential: [0.0, 0.0],
+            } if square => ("SIMPLE_RADIAL", vec![fx, cx, cy, f64::from(k1)]),
+            LensDistortion::OpenCv { radial: [k1, k2, 0.0, 0.0], rational: [0.0, 0.0, 0.0], tangential: [p1, p2] } => {
+                ("OPENCV", [fx, fy, cx, cy].into_iter().chain([k1, k2, p1, p2].map(f64::from)).collect())
+            }
+            LensDistortion::OpenCv { radial: [k1, k2, k3, 0.0], rational: [k4, k5, k6], tangential: [p1, p2] } => (
+                "FULL_OPENCV",
+                [fx, fy, cx, cy].into_iter().chain([k1, k2, p1, p2, k3, k4, k5, k6].map(f64::from)).collect(),
+            ),
+            LensDistortion::OpenCv { .. } => return Err("COLMAP has no model with an r⁸ radial term".into()),
+            LensDistortion::Fisheye { k } => {
+                ("OPENCV_FISHEYE", [fx, fy, cx, cy].into_iter().chain(k.map(f64::from)).collect())
+            }
+        };
+        let model = CameraModel::by_name(name).expect("a COLMAP model");
+        Ok(Self { id, model, width: u64::from(k.width), height: u64::from(k.height), params })
+    }
+
     /// Lucid's intrinsics for this camera, or why its model cannot be honoured. COLMAP puts the
     /// centre of the top-left pixel at (0.5, 0.5), as Lucid does, so the principal point
     /// carries over unchanged.
@@ -137,6 +171,15 @@ impl ColmapImage {
         let centre = -(r * self.translation);
         let flip = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
         glam::DMat4::from_mat3_translation(r * flip, centre)
+    }
+
+    /// The image of a camera with an OpenGL camera-to-world `pose` (the inverse of
+    /// [`Self::camera_to_world`]).
+    pub fn from_pose(id: u32, camera_id: u32, name: String, pose: glam::DMat4) -> Self {
+        let flip = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
+        let world_to_camera = (DMat3::from_mat4(pose) * flip).transpose();
+        let translation = -(world_to_camera * pose.w_axis.truncate());
+        Self { id, rotation: DQuat::from_mat3(&world_to_camera).normalize(), translation, camera_id, name }
     }
 
     /// [`Self::camera_to_world`] in `f32`.

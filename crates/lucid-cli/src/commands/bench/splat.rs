@@ -51,7 +51,7 @@ fn train_run<'a>(
     label: &str,
 ) -> anyhow::Result<TrainedRun<'a>> {
     let [train, val, test] = sets;
-    let cloud = initial_cloud(&config, dataset).map_err(anyhow::Error::msg)?;
+    let cloud = initial_cloud(&config, dataset, train).map_err(anyhow::Error::msg)?;
     let (lo, hi) = scene_box(dataset);
     let device = lucid_burn::backend::training_device();
     let trainer = SplatTrainer::new(config, &cloud, train, (lo + hi) * 0.5, device);

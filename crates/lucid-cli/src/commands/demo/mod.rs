@@ -201,7 +201,7 @@ fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::R
     config.train.steps = steps;
     config.train.seed = args.seed;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
-    let cloud = initial_cloud(&config, dataset).map_err(anyhow::Error::msg)?;
+    let cloud = initial_cloud(&config, dataset, &train).map_err(anyhow::Error::msg)?;
     let (lo, hi) = scene_box(dataset);
     let trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
     tracing::info!("training 3D Gaussian splats for {steps} steps");

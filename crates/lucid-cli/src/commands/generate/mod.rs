@@ -1,6 +1,7 @@
 //! `lucid gen SCENE --rig orbit -o DIR`: path-traced datasets in the NeRF-synthetic layout,
 //! with a `dataset.toml` that records how to regenerate them.
 
+mod capture;
 mod rig_file;
 
 use std::path::Path;
@@ -73,6 +74,19 @@ fn refuse_foreign_folder(dir: &Path) -> anyhow::Result<()> {
     )
 }
 
+/// Writes `dataset.toml` into `dir`, or checks that the one there records the same settings.
+fn pin_settings(dir: &Path, toml_text: &str) -> anyhow::Result<()> {
+    let path = dir.join("dataset.toml");
+    match std::fs::read_to_string(&path) {
+        Ok(existing) if existing != toml_text => bail!(
+            "{}: this folder holds a dataset made with other settings; use another folder (or delete it)",
+            path.display()
+        ),
+        Ok(_) => Ok(()),
+        Err(_) => Ok(lucid_image::output::write_text(&path, toml_text)?),
+    }
+}
+
 pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     let rig = rig_file::resolve_rig(&mut args, matches)?;
     if args.res == 0 || args.res > 8192 {
@@ -89,6 +103,9 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     }
     let mut loaded = lucid_datasets_gen::builtin::load_named_scene(&args.scene)?;
     crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
+    if let RigArg::Capture = rig {
+        return capture::run(&args, loaded);
+    }
     let orbit = OrbitRig {
         radius: args.radius,
         target: Vec3::ZERO,
@@ -144,6 +161,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
                 ground_truth,
             })
         }
+        RigArg::Capture => unreachable!("handled above"),
         RigArg::Olat => {
             if args.lights == 0 || args.lights > 4096 {
                 bail!("--lights must be in 1..=4096");
@@ -218,17 +236,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         }
         _ => lucid_image::output::OutputLock::folder(&args.output)?,
     };
-    let path = args.output.join("dataset.toml");
-    match std::fs::read_to_string(&path) {
-        Ok(existing) if existing != toml_text => bail!(
-            "{}: this folder holds a dataset made with other settings; use another folder (or delete it)",
-            path.display()
-        ),
-        Ok(_) => {}
-        Err(_) => {
-            lucid_image::output::write_text(&path, &toml_text)?;
-        }
-    }
+    pin_settings(&args.output, &toml_text)?;
     if args.merge {
         if !finish_dataset(&args.output, &spec)? {
             bail!(

@@ -30,6 +30,13 @@ struct RigFile {
     lights: Option<usize>,
     light_irradiance: Option<f32>,
     held_out_lights: Option<usize>,
+    images: Option<usize>,
+    height: Option<u32>,
+    k1: Option<f32>,
+    pose_noise: Option<f32>,
+    position_noise: Option<f32>,
+    point_noise: Option<f32>,
+    points: Option<usize>,
 }
 
 /// The rig type named by `--rig`, after applying a rig file's options to `args`.
@@ -39,11 +46,12 @@ pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Re
         "brackets" => return Ok(RigArg::Brackets),
         "lightfield" => return Ok(RigArg::Lightfield),
         "olat" => return Ok(RigArg::Olat),
+        "capture" => return Ok(RigArg::Capture),
         _ => {}
     }
     let path = Path::new(&args.rig);
     if !path.is_file() {
-        bail!("{}: not a rig (orbit, brackets, lightfield, olat) nor a rig file", args.rig);
+        bail!("{}: not a rig (orbit, brackets, lightfield, olat, capture) nor a rig file", args.rig);
     }
     let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
     let file: RigFile = toml::from_str(&text)
@@ -71,8 +79,19 @@ pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Re
         apertures,
         lights,
         light_irradiance,
-        held_out_lights
+        held_out_lights,
+        images,
+        k1,
+        pose_noise,
+        position_noise,
+        point_noise,
+        points
     );
+    if let Some(h) = file.height
+        && from_file("height")
+    {
+        args.height = Some(h);
+    }
     if let Some(grid) = file.grid
         && from_file("grid")
     {
