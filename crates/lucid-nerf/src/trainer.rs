@@ -149,10 +149,30 @@ impl NerfTrainer {
 
     /// A fresh model for `dataset` trained on `data` (its training images): the dataset's
     /// scene box, the cameras' pixel angle for the step growth, and their view for rendering.
-    pub fn for_dataset(config: NerfConfig, dataset: &Dataset, data: &ImageSet, device: Device) -> Self {
-        let bounds = scene_box(dataset);
+    /// An unbounded scene (a capture, or images without transparency) contracts the space
+    /// beyond the ball around the origin that holds the cameras, and the box is the contracted
+    /// ball's cube.
+    pub fn for_dataset(mut config: NerfConfig, dataset: &Dataset, data: &ImageSet, device: Device) -> Self {
+        use crate::render::march::Unbounded;
+        let unbounded = match config.march.unbounded {
+            Unbounded::Auto => dataset.normalisation.is_some() || data.is_opaque(),
+            Unbounded::On => true,
+            Unbounded::Off => false,
+        };
+        let bounds = if unbounded {
+            if config.march.contraction <= 0.0 {
+                let reach = data.cameras.iter().map(|c| c.position().length()).fold(0.0f32, f32::max);
+                config.march.contraction = reach.max(1e-3);
+            }
+            let r = config.march.contraction;
+            (Vec3::splat(-2.0 * r), Vec3::splat(2.0 * r))
+        } else {
+            config.march.contraction = 0.0;
+            scene_box(dataset)
+        };
+        let centre = if unbounded { Vec3::ZERO } else { (bounds.0 + bounds.1) * 0.5 };
         let mut trainer = Self::new(config, bounds, data.pixel_angle(), device);
-        trainer.view = ViewInfo::from_cameras(&data.cameras, (bounds.0 + bounds.1) * 0.5);
+        trainer.view = ViewInfo::from_cameras(&data.cameras, centre);
         trainer
     }
 
@@ -186,7 +206,7 @@ impl NerfTrainer {
     /// The marcher for this scene.
     pub fn marcher(&self) -> RayMarcher {
         let (lo, hi) = self.grid.bounds();
-        RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle)
+        RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle, self.grid.resolution())
     }
 
     /// The learning rate at the current schedule position (exponential decay to the final

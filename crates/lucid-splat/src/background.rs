@@ -10,12 +10,6 @@ use lucid_scene::dataset::images::ImageSet;
 /// beyond the scenery a capture walks around, where parallax between the cameras is small.
 pub const BACKGROUND_DISTANCE: f32 = 50.0;
 
-/// Whether the training images have no transparent background, i.e. they see a background
-/// that must be modelled (captures) rather than a transparent one (object sets).
-pub fn is_opaque(data: &ImageSet) -> bool {
-    data.pixels.iter().flatten().all(|p| p[3] >= 0.999)
-}
-
 /// Up to `count` points spread evenly over the sphere of [`BACKGROUND_DISTANCE`] around
 /// `centre`, each with the colour of the first training image that sees it (points no image
 /// sees are left out).
@@ -57,7 +51,7 @@ mod tests {
         let pixels =
             (0..30 * 40).map(|i| if i % 40 < 20 { [1.0, 0.0, 0.0, 1.0] } else { [0.0, 0.0, 1.0, 1.0] }).collect();
         let data = ImageSet { cameras: vec![camera], pixels: vec![pixels], paths: vec![], lenses: vec![None] };
-        assert!(is_opaque(&data));
+        assert!(data.is_opaque());
         let points = background_points(&data, Vec3::ZERO, 4000);
         // A 1.2 rad by 0.9 rad view sees about 8% of the sphere.
         assert!((200..500).contains(&points.len()), "{}", points.len());

@@ -93,7 +93,7 @@ pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset, data: &ImageSet) -
         let (lo, hi) = scene_box(dataset);
         SplatCloud::random_points_in_box(config.init.random_points, lo, hi, config.train.seed)
     };
-    if config.init.background_points > 0 && crate::background::is_opaque(data) {
+    if config.init.background_points > 0 && data.is_opaque() {
         let (lo, hi) = scene_box(dataset);
         let centre = if dataset.normalisation.is_some() { Vec3::ZERO } else { 0.5 * (lo + hi) };
         points.extend(crate::background::background_points(data, centre, config.init.background_points));

@@ -59,7 +59,7 @@ pub fn march_rays(
             }
             let (o, d) = rays[c * CHUNK + i];
             for &ts in &t[at..at + n] {
-                batch.positions.extend(box_position(o, d, ts, lo, inv_size).to_array());
+                batch.positions.extend(box_position(marcher.to_model(o + ts * d), lo, inv_size).to_array());
                 batch.directions.extend(d.to_array());
             }
             batch.samples.t.extend_from_slice(&t[at..at + n]);
@@ -72,9 +72,9 @@ pub fn march_rays(
     (batch, kept)
 }
 
-/// The point at `t` along a ray, in `[0,1]³` coordinates of the scene box whose minimum corner
-/// is `lo` and whose inverse size is `inv_size` (the field's input).
+/// A point of the grid's space (the world, or contracted) in `[0,1]³` coordinates of the box
+/// whose minimum corner is `lo` and whose inverse size is `inv_size` (the field's input).
 #[inline]
-pub fn box_position(origin: Vec3, dir: Vec3, t: f32, lo: Vec3, inv_size: Vec3) -> Vec3 {
-    ((origin + t * dir - lo) * inv_size).clamp(Vec3::ZERO, Vec3::ONE)
+pub fn box_position(model: Vec3, lo: Vec3, inv_size: Vec3) -> Vec3 {
+    ((model - lo) * inv_size).clamp(Vec3::ZERO, Vec3::ONE)
 }

@@ -159,7 +159,8 @@ impl ViewRenderer<'_> {
                         let before = part.t.len();
                         let more = self.marcher.advance(o, d, self.grid, state, per_ray, &mut part.t, &mut part.dt);
                         for &ts in &part.t[before..] {
-                            part.positions.extend(box_position(o, d, ts, lo, inv_size).to_array());
+                            part.positions
+                                .extend(box_position(self.marcher.to_model(o + ts * d), lo, inv_size).to_array());
                             part.directions.extend(d.to_array());
                         }
                         part.counts.push((part.t.len() - before) as u32);

@@ -75,6 +75,12 @@ impl ImageSet {
         std::borrow::Cow::Owned(set)
     }
 
+    /// Whether no pixel is transparent: the images see a background that a model must
+    /// represent (photographs of unbounded scenes) rather than none (object sets).
+    pub fn is_opaque(&self) -> bool {
+        self.pixels.iter().flatten().all(|p| p[3] >= 0.999)
+    }
+
     /// Number of images.
     pub fn len(&self) -> usize {
         self.cameras.len()
