@@ -141,3 +141,21 @@ pub fn evaluate(
     };
     (scores, summary)
 }
+
+/// The floor every trained model must clear: each test view predicted by the training image
+/// taken nearest to it (by camera position), both composited on `background`. The mean PSNR
+/// over the test views whose nearest training image has their size (dB), or `None` if none
+/// has.
+pub fn nearest_view_psnr(train: &ImageSet, test: &ImageSet, background: [f32; 3]) -> Option<f64> {
+    let scores: Vec<f64> = (0..test.len())
+        .filter_map(|i| {
+            let p = test.cameras[i].position();
+            let nearest = (0..train.len()).min_by(|&a, &b| {
+                train.cameras[a].position().distance(p).total_cmp(&train.cameras[b].position().distance(p))
+            })?;
+            let (guess, truth) = (ground_truth(train, nearest, background), ground_truth(test, i, background));
+            psnr(&guess, &truth, None).ok()
+        })
+        .collect();
+    (!scores.is_empty()).then(|| scores.iter().sum::<f64>() / scores.len() as f64)
+}
