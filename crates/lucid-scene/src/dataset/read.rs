@@ -276,6 +276,14 @@ impl Context<'_> {
             .to_string();
         let image_path = self.resolve_image(base, &file_path).map_err(|reason| self.invalid(&path_key, reason))?;
         let pose = self.matrix(frame, &format!("{key}.transform_matrix"))?;
+        // A mask says which pixels to ignore (people walking through a capture); training on
+        // them anyway would be silently wrong, so until masks are honoured they are refused.
+        if frame.get("mask_path").is_some_and(|v| !v.is_null()) {
+            return Err(self.invalid(
+                &format!("{key}.mask_path"),
+                "per-frame masks are not supported yet; remove the key to train on every pixel",
+            ));
+        }
         let intrinsics = self.intrinsics(root, frame, key, &image_path)?;
         let extras = FrameExtras {
             hdr_path: self.extra_path(base, frame, "hdr_file_path", key)?,

@@ -74,6 +74,15 @@ impl BenchDataset {
         }
     }
 
+    /// What the benchmark trains on, for its report.
+    pub fn describe(&self) -> String {
+        if self.built_in {
+            format!("the built-in object orbit set ({})", self.root.display())
+        } else {
+            format!("dataset {}", self.root.display())
+        }
+    }
+
     /// Renders the built-in set if needed, then opens the dataset.
     pub fn open(&self, quick: bool) -> anyhow::Result<lucid_scene::Dataset> {
         use anyhow::Context;

@@ -59,7 +59,9 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     // Best of 7: a call takes ~0.1 s and this machine's hiccups last longer than that.
     let kernel = time_kernels(&model.trainer.config.field, 1 << 16, 7);
     let phases = StepTimings::from_named(&summary.phases);
+    println!("lucid bench nerf{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
     let mut out = report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick);
+    out["dataset"] = json!(bench.dataset.root.display().to_string());
     if let Some(val) = &last_val {
         crate::budget_curve::print_validation(val);
         out["final_val"] = json!(val);
@@ -78,11 +80,7 @@ fn report(
     kernel: lucid_nerf::profile::KernelTimes,
     quick: bool,
 ) -> serde_json::Value {
-    println!(
-        "lucid bench nerf{}: object orbit set, backend {}",
-        if quick { " --quick" } else { "" },
-        lucid_nerf::backend::backend_name()
-    );
+    println!("backend {}", lucid_nerf::backend::backend_name());
     println!("{:>10} {:>7} {:>9} {:>8}", "train (s)", "step", "PSNR", "SSIM");
     for p in curve {
         println!(

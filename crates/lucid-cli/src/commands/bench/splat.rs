@@ -102,7 +102,7 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     let workload = training_workload(&trained_cloud, &train, &trainer.eval_settings());
     let raster = rasterizer_throughput(100_000);
 
-    println!("lucid bench splat{}: object orbit set", if bench.quick { " --quick" } else { "" });
+    println!("lucid bench splat{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
     println!("{:>10} {:>7} {:>9} {:>8} {:>10}", "train (s)", "step", "PSNR", "SSIM", "Gaussians");
     for p in &curve {
         println!(
@@ -154,7 +154,7 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         raster["images_per_second_800"].as_f64().unwrap_or(0.0)
     );
     Ok(json!({
-        "benchmark": "splat", "quick": bench.quick, "threads": rayon::current_num_threads(),
+        "benchmark": "splat", "dataset": bench.dataset.root.display().to_string(), "quick": bench.quick, "threads": rayon::current_num_threads(),
         "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
         "time_shares": names.iter().zip(&phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
         "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
