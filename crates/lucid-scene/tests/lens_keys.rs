@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 
 /// A one-frame transforms.json with `extra` merged into its top level.
 fn dataset(dir: &Path, extra: Value) -> Result<Dataset, lucid_scene::DatasetError> {
-    write_image(&dir.join("a.png"), &Image::black(40, 30)).unwrap();
+    write_image(dir.join("a.png"), &Image::black(40, 30)).unwrap();
     let mut root = json!({
         "fl_x": 50.0, "fl_y": 48.0, "cx": 20.5, "cy": 14.5, "w": 40, "h": 30,
         "frames": [{ "file_path": "a.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]] }]
@@ -91,7 +91,7 @@ fn lenses_that_cannot_be_honoured_are_errors_naming_the_file_and_model() {
 #[test]
 fn masks_are_refused_until_they_are_honoured() {
     let dir = tempfile::tempdir().unwrap();
-    write_image(&dir.path().join("a.png"), &Image::black(40, 30)).unwrap();
+    write_image(dir.path().join("a.png"), &Image::black(40, 30)).unwrap();
     let json = json!({"fl_x": 50.0, "frames": [{ "file_path": "a.png", "mask_path": "masks/a.png",
         "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]] }]});
     std::fs::write(dir.path().join("transforms.json"), json.to_string()).unwrap();
@@ -103,7 +103,7 @@ fn masks_are_refused_until_they_are_honoured() {
 fn written_lenses_read_back() {
     use lucid_scene::dataset::{FrameRecord, write_transforms};
     let dir = tempfile::tempdir().unwrap();
-    write_image(&dir.path().join("a.png"), &Image::black(40, 30)).unwrap();
+    write_image(dir.path().join("a.png"), &Image::black(40, 30)).unwrap();
     for lens in
         [LensDistortion::opencv(-0.1, 0.02, 0.001, 0.0), LensDistortion::Fisheye { k: [0.01, 0.0, -0.002, 0.0] }]
     {
