@@ -198,3 +198,20 @@ fn bad_models_are_errors_naming_the_file() {
     std::fs::remove_dir_all(dir.path().join("images")).unwrap();
     assert!(open_err(dir.path()).contains("no images folder"));
 }
+
+#[test]
+fn of_several_models_the_one_with_most_images_is_read() {
+    // COLMAP left a three-image fragment in sparse/0 and the main model in sparse/1.
+    let dir = text_copy();
+    let main = dir.path().join("sparse/1");
+    std::fs::rename(dir.path().join("sparse/0"), &main).unwrap();
+    std::fs::create_dir(dir.path().join("sparse/0")).unwrap();
+    for file in ["cameras.txt", "points3D.txt"] {
+        std::fs::copy(main.join(file), dir.path().join("sparse/0").join(file)).unwrap();
+    }
+    let images = std::fs::read_to_string(main.join("images.txt")).unwrap();
+    let fragment: String = images.lines().take(4 + 2 * 3).map(|l| format!("{l}\n")).collect();
+    std::fs::write(dir.path().join("sparse/0/images.txt"), fragment).unwrap();
+    assert_eq!(Dataset::open(dir.path()).unwrap().all_frames().count(), 10);
+    assert_eq!(ColmapModel::read(&dir.path().join("sparse/0")).unwrap().images.len(), 3);
+}

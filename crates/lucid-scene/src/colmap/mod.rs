@@ -237,12 +237,35 @@ fn invalid(path: &Path, reason: impl Into<String>) -> ColmapError {
     ColmapError::Invalid { path: path.to_path_buf(), reason: reason.into() }
 }
 
-/// The folder of a dataset that holds the sparse model: `sparse/0`, `sparse`, or the folder
-/// itself, whichever has `cameras.bin` or `cameras.txt`.
+/// The folder of a dataset that holds the sparse model: of `sparse/0`, `sparse/1`, … the one
+/// with the most registered images (COLMAP numbers the models it could not join in the order
+/// it started them, so `sparse/0` is not always the main one; the images file's size stands in
+/// for its count), else `sparse` or the folder itself, whichever has `cameras.bin` or
+/// `cameras.txt`.
 pub fn find_model(root: &Path) -> Option<PathBuf> {
-    [root.join("sparse/0"), root.join("sparse"), root.to_path_buf()]
+    let has_model = |d: &Path| d.join("cameras.bin").is_file() || d.join("cameras.txt").is_file();
+    let images_size = |d: &Path| {
+        ["images.bin", "images.txt"].iter().filter_map(|f| std::fs::metadata(d.join(f)).ok()).map(|m| m.len()).max()
+    };
+    let mut numbered: Vec<PathBuf> = std::fs::read_dir(root.join("sparse"))
         .into_iter()
-        .find(|d| d.join("cameras.bin").is_file() || d.join("cameras.txt").is_file())
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|d| d.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.parse::<u32>().is_ok()) && has_model(d))
+        .collect();
+    // By size, then by number: deterministic whatever order the folder lists them in.
+    numbered.sort_by_key(|d| {
+        let n: u32 = d.file_name().and_then(|n| n.to_str()).and_then(|n| n.parse().ok()).unwrap_or(0);
+        (std::cmp::Reverse(images_size(d).unwrap_or(0)), n)
+    });
+    if let Some(best) = numbered.first() {
+        if numbered.len() > 1 {
+            tracing::info!("{} sparse models; reading {}, the one with the most images", numbered.len(), best.display());
+        }
+        return Some(best.clone());
+    }
+    [root.join("sparse"), root.to_path_buf()].into_iter().find(|d| has_model(d))
 }
 
 impl ColmapModel {
