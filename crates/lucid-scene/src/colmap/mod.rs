@@ -261,7 +261,11 @@ pub fn find_model(root: &Path) -> Option<PathBuf> {
     });
     if let Some(best) = numbered.first() {
         if numbered.len() > 1 {
-            tracing::info!("{} sparse models; reading {}, the one with the most images", numbered.len(), best.display());
+            tracing::info!(
+                "{} sparse models; reading {}, the one with the most images",
+                numbered.len(),
+                best.display()
+            );
         }
         return Some(best.clone());
     }
