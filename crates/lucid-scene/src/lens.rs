@@ -73,18 +73,6 @@ impl LensDistortion {
         matches!(self, Self::None)
     }
 
-    /// The coefficients, all finite, or the name of the first that is not.
-    pub fn check_finite(&self) -> Result<(), &'static str> {
-        let all: Vec<f32> = match *self {
-            Self::None => Vec::new(),
-            Self::OpenCv { radial, rational, tangential } => {
-                radial.into_iter().chain(rational).chain(tangential).collect()
-            }
-            Self::Fisheye { k } => k.to_vec(),
-        };
-        if all.iter().all(|c| c.is_finite()) { Ok(()) } else { Err("a distortion coefficient is not finite") }
-    }
-
     /// Where the lens images the pinhole point `u`.
     pub fn distort(&self, u: Vec2) -> Vec2 {
         self.distort_f64(u.as_dvec2()).as_vec2()

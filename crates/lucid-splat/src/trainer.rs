@@ -85,17 +85,17 @@ pub fn camera_extent(data: &ImageSet) -> f32 {
 /// ([`crate::background`]).
 pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset, data: &ImageSet) -> Result<SplatCloud, String> {
     let ply = dataset.root.join("points3d.ply");
+    let (lo, hi) = scene_box(dataset);
     let mut points: Vec<(Vec3, [f32; 3])> = if config.init.use_points && !dataset.points.is_empty() {
         dataset.points.iter().map(|p| (p.position, p.colour.map(|c| f32::from(c) / 255.0))).collect()
     } else if config.init.use_points && ply.exists() {
         crate::ply::read_point_cloud(&ply).map_err(|e| e.to_string())?
     } else {
-        let (lo, hi) = scene_box(dataset);
         SplatCloud::random_points_in_box(config.init.random_points, lo, hi, config.train.seed)
     };
     if config.init.background_points > 0 && data.is_opaque() {
-        let (lo, hi) = scene_box(dataset);
-        let centre = if dataset.normalisation.is_some() { Vec3::ZERO } else { 0.5 * (lo + hi) };
+        // Around the box's centre, the scene's centre for every trainer (a capture's origin).
+        let centre = 0.5 * (lo + hi);
         points.extend(crate::background::background_points(data, centre, config.init.background_points));
     }
     let mut cloud = SplatCloud::from_points(&points);

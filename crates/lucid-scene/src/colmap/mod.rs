@@ -45,11 +45,6 @@ pub const CAMERA_MODELS: [CameraModel; 12] = [
 ];
 
 impl CameraModel {
-    /// The model of this name.
-    pub fn named(name: &str) -> Option<Self> {
-        Self::by_name(name)
-    }
-
     fn by_id(id: i32) -> Option<Self> {
         CAMERA_MODELS.iter().copied().find(|m| m.id == id)
     }
@@ -272,36 +267,41 @@ pub fn find_model(root: &Path) -> Option<PathBuf> {
     [root.join("sparse"), root.to_path_buf()].into_iter().find(|d| has_model(d))
 }
 
+/// The file `name` (`cameras`, `images`, `points3D`) of the model in `dir`: `.bin` where
+/// `cameras.bin` exists, else `.txt`.
+pub fn model_file(dir: &Path, name: &str) -> PathBuf {
+    let binary = dir.join("cameras.bin").is_file();
+    dir.join(format!("{name}.{}", if binary { "bin" } else { "txt" }))
+}
+
 impl ColmapModel {
     /// Reads `cameras`, `images` and (if present) `points3D` from `dir`, binary where
-    /// `cameras.bin` exists, else text, and checks that every image's camera exists.
+    /// `cameras.bin` exists, else text ([`model_file`]), and checks that every image's camera
+    /// exists.
     pub fn read(dir: &Path) -> Result<Self, ColmapError> {
-        let model = if dir.join("cameras.bin").is_file() {
-            let points = dir.join("points3D.bin");
+        let (cameras, images, points) =
+            (model_file(dir, "cameras"), model_file(dir, "images"), model_file(dir, "points3D"));
+        let model = if cameras.extension().is_some_and(|e| e == "bin") {
             ColmapModel {
-                cameras: binary::cameras(&dir.join("cameras.bin"))?,
-                images: binary::images(&dir.join("images.bin"))?,
+                cameras: binary::cameras(&cameras)?,
+                images: binary::images(&images)?,
                 points: if points.is_file() { binary::points(&points)? } else { Vec::new() },
             }
         } else {
-            let points = dir.join("points3D.txt");
             ColmapModel {
-                cameras: text::cameras(&dir.join("cameras.txt"))?,
-                images: text::images(&dir.join("images.txt"))?,
+                cameras: text::cameras(&cameras)?,
+                images: text::images(&images)?,
                 points: if points.is_file() { text::points(&points)? } else { Vec::new() },
             }
         };
-        let images_file = if dir.join("cameras.bin").is_file() { "images.bin" } else { "images.txt" };
+        let cameras_name = cameras.file_name().unwrap_or_default().to_string_lossy();
         for image in &model.images {
             if !model.cameras.contains_key(&image.camera_id) {
                 return Err(invalid(
-                    &dir.join(images_file),
+                    &images,
                     format!(
-                        "image {} ({}) names camera {}, which {} lacks",
-                        image.id,
-                        image.name,
-                        image.camera_id,
-                        if images_file == "images.bin" { "cameras.bin" } else { "cameras.txt" }
+                        "image {} ({}) names camera {}, which {cameras_name} lacks",
+                        image.id, image.name, image.camera_id
                     ),
                 ));
             }

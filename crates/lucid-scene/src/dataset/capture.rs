@@ -15,7 +15,7 @@ use glam::{DMat3, DMat4, DQuat, DVec3};
 
 use super::{Dataset, DatasetError, Frame, FrameExtras, OpenOptions, SparsePoint, Split, SplitFrames};
 use crate::PinholeCamera;
-use crate::colmap::{ColmapImage, ColmapModel};
+use crate::colmap::{ColmapImage, ColmapModel, model_file};
 
 /// How the dataset's own coordinates map to Lucid's: `scene = scale · rotation · (p − centre)`.
 /// Renders, camera paths and exports map back through [`Self::to_dataset`].
@@ -86,9 +86,7 @@ fn focus_point(poses: &[DMat4]) -> Option<DVec3> {
 /// Reads the COLMAP model in `model_dir` and the photographs beside it.
 pub(super) fn open(root: &Path, model_dir: &Path, options: &OpenOptions) -> Result<Dataset, DatasetError> {
     let model = ColmapModel::read(model_dir)?;
-    let is_binary = model_dir.join("cameras.bin").is_file();
-    let file = |name: &str| model_dir.join(format!("{name}.{}", if is_binary { "bin" } else { "txt" }));
-    let (images_file, cameras_file) = (file("images"), file("cameras"));
+    let (images_file, cameras_file) = (model_file(model_dir, "images"), model_file(model_dir, "cameras"));
     let invalid =
         |path: &Path, key: String, reason: String| DatasetError::Invalid { path: path.to_path_buf(), key, reason };
     if model.images.is_empty() {

@@ -66,13 +66,22 @@ impl ImageSet {
         if self.cameras.iter().all(|c| c.intrinsics.distortion.is_pinhole()) {
             return std::borrow::Cow::Borrowed(self);
         }
-        let mut set = self.clone();
-        for (camera, pixels) in set.cameras.iter_mut().zip(&mut set.pixels) {
-            let pinhole = crate::undistort::inner_pinhole(&camera.intrinsics);
-            *pixels = crate::undistort::resample(pixels, &camera.intrinsics, &pinhole);
-            camera.intrinsics = pinhole;
-        }
-        std::borrow::Cow::Owned(set)
+        // Built afresh rather than cloned and overwritten: a capture's pixels are copied once.
+        let (cameras, pixels) = self
+            .cameras
+            .iter()
+            .zip(&self.pixels)
+            .map(|(camera, pixels)| {
+                let pinhole = crate::undistort::inner_pinhole(&camera.intrinsics);
+                let pixels = if camera.intrinsics.distortion.is_pinhole() {
+                    pixels.clone()
+                } else {
+                    crate::undistort::resample(pixels, &camera.intrinsics, &pinhole)
+                };
+                (PinholeCamera { intrinsics: pinhole, ..*camera }, pixels)
+            })
+            .unzip();
+        std::borrow::Cow::Owned(ImageSet { cameras, pixels, paths: self.paths.clone(), lenses: self.lenses.clone() })
     }
 
     /// Whether no pixel is transparent: the images see a background that a model must
