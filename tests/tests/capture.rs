@@ -148,3 +148,79 @@ fn a_generated_capture_reads_back_as_the_scene_rendered() {
         assert!((ray.at(t) - p.position).length() < 1e-4 * t.max(1.0));
     }
 }
+
+/// What a model trained on a capture writes is in the capture's own frame, not the normalised
+/// one it trained in: `splats.ply` seen through the COLMAP model's own camera is the
+/// evaluation's render, a camera path in the dataset's coordinates renders that view, depth
+/// is in the dataset's units, and an orbit's written path renders the orbit again.
+#[test]
+fn a_capture_models_outputs_are_in_the_datasets_own_frame() {
+    use lucid_image::metrics::psnr;
+    use lucid_scene::PinholeCamera;
+    use lucid_scene::camera_path::{read_camera_path, write_camera_path};
+    use lucid_scene::colmap::ColmapModel;
+    let dir = temp_dir();
+    let d = dir.path();
+    capture(d, "cap", &[]);
+    lucid_in(d, &["train", "splat", "cap", "-o", "s", "--steps", "1500"]).success();
+    let frame = Dataset::open(d.join("cap")).unwrap().normalisation.unwrap();
+    let model = ColmapModel::read(&d.join("cap/sparse/0")).unwrap();
+    let image = model.images.iter().find(|im| im.name == "img_0000.png").expect("a test view");
+    let k = model.cameras[&image.camera_id].intrinsics().unwrap();
+    assert!(k.fx == k.fy && k.cx == 32.0 && k.cy == 24.0, "a camera a camera path can hold: {k:?}");
+    let camera = PinholeCamera::new(k, image.camera_to_world().as_mat4());
+    let evaluated = lucid_image::read_image(d.join("s/eval_test/img_0000.png")).unwrap();
+
+    // The exported cloud through the dataset's camera, with the evaluation's settings (the
+    // near plane in the dataset's units).
+    let header = lucid_in(d, &["info", "s/checkpoint.lucid", "--json"]).success().json();
+    let near = header["config"]["render"]["near"].as_f64().unwrap() * header["extent"].as_f64().unwrap() / frame.scale;
+    let cloud = lucid_splat::ply::read_splat_ply(&d.join("s/splats.ply")).unwrap();
+    let settings = lucid_splat::RenderSettings { near: near as f32, background: [1.0; 3], ..Default::default() };
+    let (rgba, _) = lucid_splat::render(&cloud.params(), &lucid_splat::SplatCamera::from_pinhole(&camera), &settings);
+    let decode = lucid_image::color::srgb_decode;
+    let pixels = rgba.chunks_exact(4).map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), 1.0]).collect();
+    let exported = lucid_image::Image::from_pixels(64, 48, pixels);
+    let agreement = psnr(&exported, &evaluated, None).unwrap();
+    assert!(agreement > 40.0, "splats.ply through the dataset's camera: {agreement:.1} dB from the evaluation");
+
+    // The same camera as a camera path.
+    write_camera_path(&d.join("view.json"), &[camera], 30.0).unwrap();
+    lucid_in(d, &["render", "s/checkpoint.lucid", "--camera-path", "view.json", "-o", "v"]).success();
+    let rendered = lucid_image::read_image(d.join("v/frame_0000.png")).unwrap();
+    let agreement = psnr(&rendered, &evaluated, None).unwrap();
+    assert!(agreement > 40.0, "the camera path's view: {agreement:.1} dB from the evaluation");
+    // Depth in the dataset's units: the evaluation's and the render's agree, and both are
+    // near the renderer's true depth (depth in the scene's units would be 0.23 of it here).
+    let depth = |p: &str| lucid_image::read_image(d.join(p)).unwrap().pixels().iter().map(|p| p[0]).collect::<Vec<_>>();
+    let (ours, evals, truth) =
+        (depth("v/frame_0000_depth.exr"), depth("s/eval_test/img_0000_depth.exr"), depth("cap/depth/img_0000.exr"));
+    for (a, b) in ours.iter().zip(&evals) {
+        assert!((a - b).abs() <= 1e-3 * b.abs().max(1.0), "render depth {a}, evaluation depth {b}");
+    }
+    let mut ratios: Vec<f32> =
+        ours.iter().zip(&truth).filter(|(_, t)| t.is_finite() && **t > 0.0).map(|(a, t)| a / t).collect();
+    ratios.sort_by(f32::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    // Measured 1.03 after 1500 steps (after 400, the far sphere behind still-thin surfaces
+    // pulls the expected depth up: 3.9).
+    assert!((0.85..1.15).contains(&median), "median depth / true depth {median} (scale {})", frame.scale);
+
+    // An orbit circles the capture's centre at the cameras' mean distance, in its units, and
+    // its written path renders it again.
+    lucid_in(d, &["render", "s/checkpoint.lucid", "-o", "orbit", "--frames", "3"]).success();
+    let path = read_camera_path(&d.join("orbit/camera_path.json")).unwrap();
+    let mean = model.images.iter().map(|im| im.camera_to_world().w_axis.truncate().distance(frame.centre)).sum::<f64>()
+        / model.images.len() as f64;
+    for c in &path.cameras {
+        let r = c.position().as_dvec3().distance(frame.centre);
+        assert!((r / mean - 1.0).abs() < 0.02, "orbit radius {r} against the cameras' {mean}");
+    }
+    lucid_in(d, &["render", "s/checkpoint.lucid", "--camera-path", "orbit/camera_path.json", "-o", "again"]).success();
+    for k in 0..3 {
+        let name = format!("frame_{k:04}.png");
+        let (a, b) = (d.join("orbit").join(&name), d.join("again").join(&name));
+        let agreement = psnr(&lucid_image::read_image(a).unwrap(), &lucid_image::read_image(b).unwrap(), None).unwrap();
+        assert!(agreement > 45.0, "orbit frame {k} rendered again from its path: {agreement:.1} dB");
+    }
+}

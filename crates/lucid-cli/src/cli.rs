@@ -700,10 +700,16 @@ pub struct RenderArgs {
     /// Checkpoints: the camera path around the scene centre.
     #[arg(long, value_enum, default_value_t = CameraPathArg::Orbit)]
     pub path: CameraPathArg,
+    /// Checkpoints: render the cameras of this `camera_path.json` (nerfstudio's format, in
+    /// the dataset's own frame) instead of an orbit or spiral; every render writes its path
+    /// there too.
+    #[arg(long, conflicts_with_all = ["radius", "elevation"])]
+    pub camera_path: Option<PathBuf>,
     /// Checkpoints: frames along the path (the output is a folder of numbered PNGs and depth EXRs).
     #[arg(long, default_value_t = 60)]
     pub frames: usize,
-    /// Checkpoints: camera distance from the scene centre (default: the training cameras').
+    /// Checkpoints: camera distance from the scene centre, in the dataset's units (default:
+    /// the training cameras').
     #[arg(long)]
     pub radius: Option<f32>,
     /// Checkpoints: camera elevation in degrees (the orbit's; the spiral swings around it).

@@ -172,7 +172,7 @@ impl NerfTrainer {
         };
         let centre = if unbounded { Vec3::ZERO } else { (bounds.0 + bounds.1) * 0.5 };
         let mut trainer = Self::new(config, bounds, data.pixel_angle(), device);
-        trainer.view = ViewInfo::from_cameras(&data.cameras, centre);
+        trainer.view = ViewInfo { frame: dataset.normalisation, ..ViewInfo::from_cameras(&data.cameras, centre) };
         trainer
     }
 

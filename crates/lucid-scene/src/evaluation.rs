@@ -29,10 +29,12 @@ impl RenderedView {
         self.colour.map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0])
     }
 
-    /// The depth as an image (the same value in every channel, for single-channel EXR).
-    pub fn depth_image(&self) -> Image {
+    /// The expected depth as an image, in the dataset's own units where `frame` maps the
+    /// dataset to the scene the model was trained in.
+    pub fn depth_image(&self, frame: Option<&crate::dataset::SceneNormalisation>) -> Image {
         let (w, h) = self.colour.dimensions();
-        Image::from_pixels(w, h, self.depth.iter().map(|&d| [d, d, d, 1.0]).collect())
+        let to_dataset = frame.map_or(1.0, |n| (1.0 / n.scale) as f32);
+        Image::from_pixels(w, h, self.depth.iter().map(|&d| d * to_dataset).map(|d| [d, d, d, 1.0]).collect())
     }
 }
 

@@ -1,5 +1,5 @@
 //! A model's evaluation on one split of a dataset, written to a folder: per view the render
-//! (`stem.png`), its expected depth (`stem_depth.exr`) and an error map (`stem_error.png`,
+//! (`stem.png`), its expected depth (`stem_depth.exr`, in the dataset's own units) and an error map (`stem_error.png`,
 //! |error| × 4 in grey), and `metrics.json` with every view's scores and their means. Used by
 //! `lucid eval` and at the end of every training run.
 
@@ -50,7 +50,7 @@ pub fn evaluate_split(
         progress(done, frames.len());
         if failure.is_none() {
             let stem = frames[i].image_path.file_stem().and_then(|s| s.to_str()).unwrap_or("view");
-            failure = write_view(out, stem, view, truth).err();
+            failure = write_view(out, stem, view, truth, dataset).err();
         }
     });
     if let Some(e) = failure {
@@ -84,12 +84,12 @@ pub fn evaluate_split(
     Ok(SplitEvaluation { report, lines })
 }
 
-fn write_view(out: &Path, stem: &str, view: &RenderedView, truth: &Image) -> Result<(), ImageError> {
+fn write_view(out: &Path, stem: &str, view: &RenderedView, truth: &Image, dataset: &Dataset) -> Result<(), ImageError> {
     // Renders are in sRGB-encoded space; the PNG writer encodes linear values, so decode.
     write_image(out.join(format!("{stem}.png")), &view.linear_colour())?;
     write_image_with(
         out.join(format!("{stem}_depth.exr")),
-        &view.depth_image(),
+        &view.depth_image(dataset.normalisation.as_ref()),
         WriteOptions { single_channel: true, ..Default::default() },
     )?;
     let (w, h) = view.colour.dimensions();

@@ -11,6 +11,7 @@
 //! `transforms_*.json` layout; [`evaluation`] scores any trained model on its held-out views.
 
 pub mod camera;
+pub mod camera_path;
 pub mod colmap;
 pub mod dataset;
 pub mod evaluation;

@@ -12,6 +12,7 @@ pub mod checkpoint;
 pub mod cloud;
 pub mod config;
 pub mod densify;
+pub mod frame;
 pub mod knn;
 pub mod loss;
 pub mod model;

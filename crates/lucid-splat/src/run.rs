@@ -22,7 +22,8 @@ pub struct SplatRun<'a> {
     pub data: &'a ImageSet,
     /// The dataset whose test split the final evaluation scores.
     pub held_out: Option<&'a Dataset>,
-    /// Where the trained cloud is exported as a standard 3DGS `.ply` at the end.
+    /// Where the trained cloud is exported as a standard 3DGS `.ply` at the end (in the
+    /// dataset's own frame, for a capture).
     pub export: Option<PathBuf>,
 }
 
@@ -65,9 +66,14 @@ impl Trainable for SplatRun<'_> {
 
     fn finish(&mut self) -> Result<Vec<String>, ModelError> {
         let Some(path) = &self.export else { return Ok(Vec::new()) };
-        let cloud = self.trainer.model.to_cloud();
+        let mut cloud = self.trainer.model.to_cloud();
+        let mut frame = "";
+        if let Some(normalisation) = &self.trainer.view.frame {
+            cloud = crate::frame::cloud_in_dataset_frame(&cloud, normalisation);
+            frame = " (in the dataset's frame)";
+        }
         crate::ply::write_splat_ply(path, &cloud)?;
-        Ok(vec![format!("{} Gaussians -> {}", cloud.len(), path.display())])
+        Ok(vec![format!("{} Gaussians -> {}{frame}", cloud.len(), path.display())])
     }
 
     fn evaluate(&mut self, out: &Path) -> Result<Vec<String>, ModelError> {

@@ -85,9 +85,131 @@ pub fn basis_gradient(d: Vec3, degree: usize) -> [Vec3; SH_COEFFS] {
     g
 }
 
+/// Turns functions given by their SH coefficients: `f ↦ f∘R⁻¹`, band by band (a rotation
+/// mixes the coefficients of one degree only). Used to carry a cloud's view-dependent colour
+/// into another frame.
+pub struct ShRotation {
+    /// The `(2l+1)²` row-major matrix of each band `l = 1..=3`.
+    bands: [Vec<f64>; 3],
+}
+
+impl ShRotation {
+    /// The rotation of coefficients by `r`.
+    ///
+    /// Each band's matrix is fitted, in least squares, to the rotated basis at directions
+    /// spread over the sphere. Exact (to rounding) because a rotated band is a combination of
+    /// the same band; a closed-form recurrence (Ivanic–Ruedenberg) would need this module's
+    /// sign conventions re-derived, and no crate implements the 3DGS basis.
+    pub fn new(r: glam::DMat3) -> Self {
+        const SAMPLES: usize = 64;
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let dirs: Vec<glam::DVec3> = (0..SAMPLES)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / SAMPLES as f64;
+                let rho = (1.0 - z * z).sqrt();
+                let phi = golden * k as f64;
+                glam::DVec3::new(rho * phi.cos(), rho * phi.sin(), z)
+            })
+            .collect();
+        let inverse = r.transpose();
+        let at = |d: glam::DVec3| basis(d.as_vec3(), 3).map(f64::from);
+        let (plain, turned): (Vec<_>, Vec<_>) = dirs.iter().map(|&d| (at(d), at(inverse * d))).unzip();
+        let bands = [1usize, 2, 3].map(|l| {
+            let (o, n) = (l * l, 2 * l + 1);
+            // Normal equations (AᵀA) M = AᵀB, with A the basis and B the turned basis.
+            let mut ata = vec![0.0; n * n];
+            let mut atb = vec![0.0; n * n];
+            for (a, b) in plain.iter().zip(&turned) {
+                for i in 0..n {
+                    for j in 0..n {
+                        ata[i * n + j] += a[o + i] * a[o + j];
+                        atb[i * n + j] += a[o + i] * b[o + j];
+                    }
+                }
+            }
+            solve(&mut ata, &mut atb, n);
+            atb
+        });
+        Self { bands }
+    }
+
+    /// Turns one Gaussian's rest coefficients, laid out `[3·(k−1) + channel]` for basis
+    /// functions `k = 1..16`, in place.
+    pub fn apply_rest(&self, rest: &mut [f32]) {
+        for (l, m) in (1usize..=3).zip(&self.bands) {
+            let (o, n) = (l * l - 1, 2 * l + 1);
+            for c in 0..3 {
+                let old: Vec<f64> = (0..n).map(|j| f64::from(rest[3 * (o + j) + c])).collect();
+                for i in 0..n {
+                    let v: f64 = (0..n).map(|j| m[i * n + j] * old[j]).sum();
+                    rest[3 * (o + i) + c] = v as f32;
+                }
+            }
+        }
+    }
+}
+
+/// Solves `A X = B` for `n×n` row-major `A` (symmetric positive definite here) and `B`,
+/// leaving `X` in `b`: Gaussian elimination with partial pivoting, for matrices of at most
+/// 7×7, where a linear-algebra dependency would be out of proportion.
+fn solve(a: &mut [f64], b: &mut [f64], n: usize) {
+    for col in 0..n {
+        let pivot = (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs())).unwrap_or(col);
+        for k in 0..n {
+            a.swap(col * n + k, pivot * n + k);
+            b.swap(col * n + k, pivot * n + k);
+        }
+        let p = a[col * n + col];
+        for row in 0..n {
+            if row == col {
+                continue;
+            }
+            let f = a[row * n + col] / p;
+            for k in 0..n {
+                a[row * n + k] -= f * a[col * n + k];
+                b[row * n + k] -= f * b[col * n + k];
+            }
+        }
+    }
+    for row in 0..n {
+        let p = a[row * n + row];
+        b[row * n..(row + 1) * n].iter_mut().for_each(|v| *v /= p);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A turned function at a turned direction has the original's value there, at every
+    /// degree, for rest coefficients of every channel.
+    #[test]
+    fn rotation_turns_the_function() {
+        let r = glam::DMat3::from_quat(glam::DQuat::from_axis_angle(glam::DVec3::new(0.3, -0.8, 0.5).normalize(), 2.1));
+        let rotation = ShRotation::new(r);
+        let rest: Vec<f32> = (0..45).map(|k| ((k * 37 % 11) as f32 - 5.0) * 0.1).collect();
+        let mut turned = rest.clone();
+        rotation.apply_rest(&mut turned);
+        let value = |rest: &[f32], d: Vec3, c: usize| -> f32 {
+            let y = basis(d, 3);
+            (1..SH_COEFFS).map(|k| y[k] * rest[3 * (k - 1) + c]).sum()
+        };
+        for k in 0..50 {
+            let d =
+                Vec3::new((k as f32 * 0.7).sin(), (k as f32 * 1.3).cos(), (k as f32 * 0.37).sin() - 0.2).normalize();
+            let rd = (r * d.as_dvec3()).as_vec3();
+            for c in 0..3 {
+                let (want, got) = (value(&rest, d, c), value(&turned, rd, c));
+                assert!((want - got).abs() < 1e-4, "direction {d}, channel {c}: {want} vs {got}");
+            }
+        }
+        // And a turn that changes nothing leaves the coefficients.
+        let mut same = rest.clone();
+        ShRotation::new(glam::DMat3::IDENTITY).apply_rest(&mut same);
+        for (a, b) in rest.iter().zip(&same) {
+            assert!((a - b).abs() < 1e-5);
+        }
+    }
 
     #[test]
     fn gradient_matches_finite_differences() {

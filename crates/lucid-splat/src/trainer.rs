@@ -127,6 +127,22 @@ impl SplatTrainer {
         }
     }
 
+    /// A trainer for `dataset`, trained on `data` (its training images) from `cloud`: the
+    /// scene box's centre is the target of novel-view paths, and a capture's normalisation is
+    /// kept so that exports and renders come out in the dataset's own frame.
+    pub fn for_dataset(
+        config: SplatConfig,
+        cloud: &SplatCloud,
+        dataset: &Dataset,
+        data: &ImageSet,
+        device: Device,
+    ) -> Self {
+        let (lo, hi) = scene_box(dataset);
+        let mut trainer = Self::new(config, cloud, data, (lo + hi) * 0.5, device);
+        trainer.view.frame = dataset.normalisation;
+        trainer
+    }
+
     /// Rebuilds a trainer from saved parts.
     #[allow(clippy::too_many_arguments)]
     pub fn from_parts(

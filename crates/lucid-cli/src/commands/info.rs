@@ -105,5 +105,11 @@ fn checkpoint_info(path: &std::path::Path, json: bool) -> anyhow::Result<()> {
             println!("  {key} {value}");
         }
     }
+    if let Some(frame) = header["view"]["frame"].as_object() {
+        println!(
+            "  trained on a capture, normalised (centre {}, scale {}); renders and exports are in the dataset's frame",
+            frame["centre"], frame["scale"]
+        );
+    }
     Ok(())
 }

@@ -13,7 +13,7 @@ use lucid_relight_head::config::RelightConfig;
 use lucid_relight_head::data::OlatSet;
 use lucid_relight_head::run::HeadRun;
 use lucid_relight_head::trainer::RelightTrainer;
-use lucid_scene::dataset::images::{ImageSet, scene_box};
+use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::{Dataset, Split};
 use lucid_splat::run::SplatRun;
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
@@ -42,8 +42,7 @@ fn geometry_stage(
         let cloud = initial_cloud(&config.geometry, dataset, images)
             .map_err(anyhow::Error::msg)
             .with_context(|| format!("initialising from {}", dataset.root.display()))?;
-        let (lo, hi) = scene_box(dataset);
-        (SplatTrainer::new(config.geometry.clone(), &cloud, images, (lo + hi) * 0.5, device), 0.0)
+        (SplatTrainer::for_dataset(config.geometry.clone(), &cloud, dataset, images, device), 0.0)
     };
     if budget.spent(trainer.step, elapsed) {
         return Ok(trainer);

@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::Context;
 use lucid_burn::run::{NoObserver, RunFolder, Start, run};
 use lucid_scene::Split;
-use lucid_scene::dataset::images::{ImageSet, scene_box};
+use lucid_scene::dataset::images::ImageSet;
 use lucid_splat::checkpoint::{self, SPLAT_KIND};
 use lucid_splat::config::SplatConfig;
 use lucid_splat::run::SplatRun;
@@ -48,8 +48,7 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
             let cloud = initial_cloud(&config, &dataset, &data)
                 .map_err(anyhow::Error::msg)
                 .with_context(|| format!("initialising from {}", dataset.root.display()))?;
-            let (lo, hi) = scene_box(&dataset);
-            (SplatTrainer::new(config, &cloud, &data, (lo + hi) * 0.5, device), 0.0)
+            (SplatTrainer::for_dataset(config, &cloud, &dataset, &data, device), 0.0)
         }
     };
     let t = trainer.config.train;

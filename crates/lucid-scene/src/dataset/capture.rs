@@ -19,7 +19,7 @@ use crate::colmap::{ColmapImage, ColmapModel, model_file};
 
 /// How the dataset's own coordinates map to Lucid's: `scene = scale · rotation · (p − centre)`.
 /// Renders, camera paths and exports map back through [`Self::to_dataset`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SceneNormalisation {
     /// The dataset point that becomes the origin.
     pub centre: DVec3,
@@ -44,6 +44,13 @@ impl SceneNormalisation {
     pub fn pose_to_scene(&self, pose: DMat4) -> DMat4 {
         let r = DMat3::from_quat(self.rotation) * DMat3::from_mat4(pose);
         DMat4::from_mat3_translation(r, self.to_scene(pose.w_axis.truncate()))
+    }
+
+    /// A scene camera-to-world pose (rigid) in the dataset's coordinates: the inverse of
+    /// [`Self::pose_to_scene`].
+    pub fn pose_to_dataset(&self, pose: DMat4) -> DMat4 {
+        let r = DMat3::from_quat(self.rotation.inverse()) * DMat3::from_mat4(pose);
+        DMat4::from_mat3_translation(r, self.to_dataset(pose.w_axis.truncate()))
     }
 
     /// Chooses the normalisation of cameras with these poses (OpenGL camera-to-world).

@@ -124,11 +124,16 @@ pub struct ViewInfo {
     pub height: u32,
     /// Horizontal field of view of the first camera (radians).
     pub fov_x: f32,
+    /// How the dataset's own coordinates map to the scene's, for a capture: renders, camera
+    /// paths and exports are mapped back through it. Absent in checkpoints from before it was
+    /// kept, and for datasets used as they are.
+    #[serde(default)]
+    pub frame: Option<super::SceneNormalisation>,
 }
 
 impl Default for ViewInfo {
     fn default() -> Self {
-        Self { radius: 4.0, width: 200, height: 200, fov_x: 40f32.to_radians() }
+        Self { radius: 4.0, width: 200, height: 200, fov_x: 40f32.to_radians(), frame: None }
     }
 }
 
@@ -138,7 +143,7 @@ impl ViewInfo {
         let Some(first) = cameras.first() else { return Self::default() };
         let radius = cameras.iter().map(|c| (c.position() - centre).length()).sum::<f32>() / cameras.len() as f32;
         let k = first.intrinsics;
-        Self { radius, width: k.width, height: k.height, fov_x: k.fov_x() }
+        Self { radius, width: k.width, height: k.height, fov_x: k.fov_x(), frame: None }
     }
 }
 

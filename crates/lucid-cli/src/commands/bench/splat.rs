@@ -10,7 +10,7 @@ use std::time::Instant;
 use anyhow::Context;
 use glam::Vec3;
 use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport};
-use lucid_scene::dataset::images::{ImageSet, scene_box};
+use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
 use lucid_splat::config::{InitConfig, SplatConfig};
 use lucid_splat::raster::{rasterize, rasterize_backward};
@@ -52,9 +52,8 @@ fn train_run<'a>(
 ) -> anyhow::Result<TrainedRun<'a>> {
     let [train, val, test] = sets;
     let cloud = initial_cloud(&config, dataset, train).map_err(anyhow::Error::msg)?;
-    let (lo, hi) = scene_box(dataset);
     let device = lucid_burn::backend::training_device();
-    let trainer = SplatTrainer::new(config, &cloud, train, (lo + hi) * 0.5, device);
+    let trainer = SplatTrainer::for_dataset(config, &cloud, dataset, train, device);
     let mut model = SplatRun { trainer, data: train, held_out: None, export: None };
     let mut curve = BudgetCurve::benchmark(bench.quick, test, Some(val), bench.curve_views);
     let total = curve.total();

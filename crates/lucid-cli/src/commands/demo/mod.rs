@@ -186,7 +186,6 @@ fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Re
 /// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
 /// them), saves it under `<out>/splat/` with `splats.ply`, and scores it on the test views.
 fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
-    use lucid_scene::dataset::images::scene_box;
     use lucid_splat::trainer::{SplatTrainer, initial_cloud};
     let mut config = lucid_splat::config::SplatConfig::default();
     let steps = args.splat_steps;
@@ -202,8 +201,7 @@ fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::R
     config.train.seed = args.seed;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let cloud = initial_cloud(&config, dataset, &train).map_err(anyhow::Error::msg)?;
-    let (lo, hi) = scene_box(dataset);
-    let trainer = SplatTrainer::new(config, &cloud, &train, (lo + hi) * 0.5, lucid_burn::backend::training_device());
+    let trainer = SplatTrainer::for_dataset(config, &cloud, dataset, &train, lucid_burn::backend::training_device());
     tracing::info!("training 3D Gaussian splats for {steps} steps");
     let dir = model_dir(args, "splat")?;
     let export = Some(dir.join("splats.ply"));

@@ -1,16 +1,26 @@
-//! `lucid render CHECKPOINT -o DIR --path orbit|spiral --frames N`: novel views of a trained
-//! model along a camera path, as numbered PNGs with depth EXRs; `--aperture A --focus D`
+//! `lucid render CHECKPOINT -o DIR --path orbit|spiral --frames N`, or `--camera-path FILE`:
+//! novel views of a trained model along a camera path, as numbered PNGs with depth EXRs and
+//! the path itself (`camera_path.json`, nerfstudio's format). `--aperture A --focus D`
 //! renders through a thin lens (depth of field) by averaging rays over the aperture.
+//!
+//! A model trained on a capture works in normalised coordinates; everything this command
+//! reads and writes is in the dataset's own frame instead (camera paths, depth, and the
+//! lengths `--radius`, `--aperture` and `--focus`), so it lines up with the dataset's cameras.
 
 use std::f32::consts::TAU;
 
 use anyhow::{Context, bail};
 use glam::Vec3;
 use lucid_image::{WriteOptions, write_image, write_image_with};
+use lucid_scene::camera_path::{read_camera_path, write_camera_path};
+use lucid_scene::dataset::SceneNormalisation;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
 use crate::cli::{CameraPathArg, RenderArgs};
 use crate::loaded_model::LoadedModel;
+
+/// Frame rate written into the path of an orbit or spiral.
+const FPS: f64 = 30.0;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.frames == 0 {
@@ -21,24 +31,73 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--aperture must be zero or positive and --focus positive, got {a} and {f}");
     }
-    let loaded = LoadedModel::load(&args.scene)?;
-    let view = loaded.view();
-    let (w, h) = (args.width.unwrap_or(view.width), args.height.unwrap_or(view.height));
-    if w == 0 || h == 0 {
+    if args.width == Some(0) || args.height == Some(0) {
         bail!("--width and --height must be positive");
     }
-    let radius = args.radius.unwrap_or(view.radius);
+    let loaded = LoadedModel::load(&args.scene)?;
+    let frame = loaded.view().frame;
+    // Lengths on the command line are the dataset's; the model measures in the scene's.
+    let to_scene = |length: f32| frame.map_or(length, |n| length * n.scale as f32);
+    let (cameras, fps) = match &args.camera_path {
+        Some(file) => {
+            let path = read_camera_path(file)?;
+            let cameras = path.cameras.iter().map(|c| resized(c, args.width, args.height)).collect();
+            (in_frame(cameras, frame.as_ref(), SceneNormalisation::pose_to_scene), path.fps)
+        }
+        None => (path_cameras(&args, &loaded, args.radius.map(to_scene))?, FPS),
+    };
+    let lens = args.aperture.zip(args.focus).map(|(a, f)| (to_scene(a), to_scene(f)));
+
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
+    let bar = crate::progress::bar(cameras.len() as u64, "rendering");
+    let started = std::time::Instant::now();
+    loaded.with_renderer(|renderer| -> anyhow::Result<()> {
+        for (k, camera) in cameras.iter().enumerate() {
+            let out = renderer.render_view(camera, lens, args.lens_rays, k as u64);
+            write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
+            let depth = out.depth_image(frame.as_ref());
+            let depth_options = WriteOptions { single_channel: true, ..Default::default() };
+            write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &depth, depth_options)?;
+            bar.inc(1);
+        }
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    let path_file = args.output.join("camera_path.json");
+    write_camera_path(
+        &path_file,
+        &in_frame(cameras.clone(), frame.as_ref(), SceneNormalisation::pose_to_dataset),
+        fps,
+    )?;
+    let k = cameras[0].intrinsics;
+    println!(
+        "rendered {} frames of {}x{} in {seconds:.1} s ({:.3} s per frame) -> {} (path: {}{})",
+        cameras.len(),
+        k.width,
+        k.height,
+        seconds / cameras.len() as f64,
+        args.output.display(),
+        path_file.display(),
+        if frame.is_some() { ", in the dataset's frame" } else { "" }
+    );
+    Ok(())
+}
+
+/// The orbit or spiral around the model's centre (scene coordinates), at `radius` or the
+/// training cameras' distance.
+fn path_cameras(args: &RenderArgs, loaded: &LoadedModel, radius: Option<f32>) -> anyhow::Result<Vec<PinholeCamera>> {
+    let view = loaded.view();
+    let (w, h) = (args.width.unwrap_or(view.width), args.height.unwrap_or(view.height));
+    let radius = radius.unwrap_or(view.radius);
     if !(radius.is_finite() && radius > 0.0) {
         bail!("--radius must be positive, got {radius}");
     }
     let centre = loaded.centre();
     let intrinsics = Intrinsics::from_fov_x(w, h, view.fov_x);
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let lens = args.aperture.zip(args.focus);
-    let bar = crate::progress::bar(args.frames as u64, "rendering");
-    let started = std::time::Instant::now();
-    loaded.with_renderer(|renderer| -> anyhow::Result<()> {
-        for k in 0..args.frames {
+    Ok((0..args.frames)
+        .map(|k| {
             let u = k as f32 / args.frames as f32;
             let (azimuth, elevation) = match args.path {
                 CameraPathArg::Orbit => (TAU * u, args.elevation),
@@ -46,22 +105,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             };
             let e = elevation.to_radians();
             let eye = centre + radius * Vec3::new(e.cos() * azimuth.cos(), e.cos() * azimuth.sin(), e.sin());
-            let camera = PinholeCamera::new(intrinsics, look_at(eye, centre, Vec3::Z));
-            let out = renderer.render_view(&camera, lens, args.lens_rays, k as u64);
-            write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
-            let depth_options = WriteOptions { single_channel: true, ..Default::default() };
-            write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &out.depth_image(), depth_options)?;
-            bar.inc(1);
+            PinholeCamera::new(intrinsics, look_at(eye, centre, Vec3::Z))
+        })
+        .collect())
+}
+
+/// `camera` at another image size, where one is asked for (focal lengths scale with it).
+fn resized(camera: &PinholeCamera, width: Option<u32>, height: Option<u32>) -> PinholeCamera {
+    let k = camera.intrinsics;
+    PinholeCamera { intrinsics: k.resized(width.unwrap_or(k.width), height.unwrap_or(k.height)), ..*camera }
+}
+
+/// The cameras' poses mapped by `map` of the dataset's normalisation, if it has one.
+fn in_frame(
+    mut cameras: Vec<PinholeCamera>,
+    frame: Option<&SceneNormalisation>,
+    map: fn(&SceneNormalisation, glam::DMat4) -> glam::DMat4,
+) -> Vec<PinholeCamera> {
+    if let Some(n) = frame {
+        for c in &mut cameras {
+            c.camera_to_world = map(n, c.camera_to_world.as_dmat4()).as_mat4();
         }
-        Ok(())
-    })?;
-    bar.finish_and_clear();
-    let seconds = started.elapsed().as_secs_f64();
-    println!(
-        "rendered {} frames of {w}x{h} in {seconds:.1} s ({:.3} s per frame) -> {}",
-        args.frames,
-        seconds / args.frames as f64,
-        args.output.display()
-    );
-    Ok(())
+    }
+    cameras
 }

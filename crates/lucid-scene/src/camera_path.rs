@@ -1,0 +1,221 @@
+//! Camera paths in nerfstudio's `camera_path.json` format, the one its viewer exports and
+//! `ns-render` reads:
+//!
+//! ```json
+//! { "camera_type": "perspective", "render_width": 640, "render_height": 480, "fps": 30,
+//!   "seconds": 2, "camera_path": [ { "camera_to_world": [16 numbers, row-major],
+//!   "fov": 50.0, "aspect": 1.333 } ] }
+//! ```
+//!
+//! Poses are OpenGL camera-to-world matrices (as in `transforms.json`); `fov` is the vertical
+//! field of view in degrees, with square pixels and the principal point at the centre.
+//! Lucid writes the path of every novel-view render beside its frames, so a render can be
+//! reproduced or continued in another tool.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Mat4};
+use serde_json::{Value, json};
+
+use crate::{Intrinsics, PinholeCamera};
+
+/// A file that is not a camera path Lucid can render.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {reason}", path.display())]
+pub struct CameraPathError {
+    /// The file.
+    pub path: PathBuf,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+/// Cameras to render, in order, and the frame rate they are meant to play at.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPath {
+    /// The cameras, in the path's own coordinates.
+    pub cameras: Vec<PinholeCamera>,
+    /// Frames per second.
+    pub fps: f64,
+}
+
+/// Reads a `camera_path.json`.
+pub fn read_camera_path(path: &Path) -> Result<CameraPath, CameraPathError> {
+    let fail = |reason: String| CameraPathError { path: path.to_path_buf(), reason };
+    let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    let root: Value = serde_json::from_str(&text).map_err(|e| fail(format!("malformed JSON: {e}")))?;
+    let size = |key: &str| -> Result<u32, CameraPathError> {
+        root.get(key)
+            .and_then(Value::as_u64)
+            .filter(|&v| (1..=16384).contains(&v))
+            .map(|v| v as u32)
+            .ok_or_else(|| fail(format!("'{key}' must be an image size of 1..=16384 pixels")))
+    };
+    let (width, height) = (size("render_width")?, size("render_height")?);
+    if let Some(kind) = root.get("camera_type") {
+        match kind.as_str() {
+            Some(k) if k.eq_ignore_ascii_case("perspective") => {}
+            _ => return Err(fail(format!("camera_type {kind} is not rendered here (only \"perspective\")"))),
+        }
+    }
+    let fps = match root.get("fps") {
+        None => 30.0,
+        Some(v) => {
+            v.as_f64().filter(|f| f.is_finite() && *f > 0.0).ok_or_else(|| fail(format!("fps {v} must be positive")))?
+        }
+    };
+    let Some(frames) = root.get("camera_path").and_then(Value::as_array) else {
+        return Err(fail("no 'camera_path' list of cameras".into()));
+    };
+    if frames.is_empty() {
+        return Err(fail("'camera_path' holds no camera".into()));
+    }
+    let cameras = frames
+        .iter()
+        .enumerate()
+        .map(|(i, frame)| camera(frame, width, height).map_err(|reason| fail(format!("camera {i}: {reason}"))))
+        .collect::<Result<_, _>>()?;
+    Ok(CameraPath { cameras, fps })
+}
+
+fn camera(frame: &Value, width: u32, height: u32) -> Result<PinholeCamera, String> {
+    let numbers: Vec<f32> = frame
+        .get("camera_to_world")
+        .and_then(Value::as_array)
+        .map(|a| a.iter().filter_map(Value::as_f64).map(|v| v as f32).collect())
+        .unwrap_or_default();
+    if numbers.len() != 16 || numbers.iter().any(|v| !v.is_finite()) {
+        return Err("'camera_to_world' must be 16 finite numbers (a row-major 4×4 matrix)".into());
+    }
+    let pose = Mat4::from_cols_array(&numbers.try_into().expect("16 numbers")).transpose();
+    if !pose.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+        return Err(format!("the last row of 'camera_to_world' is {}, not [0, 0, 0, 1]", pose.row(3)));
+    }
+    let r = Mat3::from_mat4(pose);
+    if !(r.transpose() * r).abs_diff_eq(Mat3::IDENTITY, 1e-3) || r.determinant() < 0.0 {
+        return Err("'camera_to_world' is not a rigid pose (its rotation is not orthonormal)".into());
+    }
+    let fov = frame.get("fov").and_then(Value::as_f64).filter(|f| f.is_finite() && *f > 0.0 && *f < 180.0);
+    let Some(fov) = fov else {
+        return Err("'fov' must be a vertical field of view in degrees, in (0, 180)".into());
+    };
+    let f = 0.5 * height as f32 / (0.5 * (fov as f32).to_radians()).tan();
+    let k = Intrinsics::pinhole(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32);
+    Ok(PinholeCamera::new(k, pose))
+}
+
+/// Writes `cameras` (pinholes of one image size) as a `camera_path.json`, atomically.
+pub fn write_camera_path(path: &Path, cameras: &[PinholeCamera], fps: f64) -> Result<(), CameraPathError> {
+    let fail = |reason: String| CameraPathError { path: path.to_path_buf(), reason };
+    let Some(first) = cameras.first() else { return Err(fail("no camera to write".into())) };
+    let (width, height) = (first.intrinsics.width, first.intrinsics.height);
+    let frames: Vec<Value> = cameras
+        .iter()
+        .map(|c| {
+            json!({
+                "camera_to_world": c.camera_to_world.transpose().to_cols_array(),
+                "fov": c.intrinsics.fov_y().to_degrees(),
+                "aspect": c.intrinsics.width as f32 / c.intrinsics.height as f32,
+            })
+        })
+        .collect();
+    let root = json!({
+        "camera_type": "perspective",
+        "render_width": width,
+        "render_height": height,
+        "fps": fps,
+        "seconds": cameras.len() as f64 / fps,
+        "camera_path": frames,
+    });
+    let text = serde_json::to_string_pretty(&root).expect("the path serialises");
+    lucid_image::output::write_text(path, &text).map_err(|e| fail(format!("cannot write: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::look_at;
+
+    fn path() -> Vec<PinholeCamera> {
+        let k = Intrinsics::from_fov_x(80, 60, 0.8);
+        (0..5)
+            .map(|i| {
+                let eye = Vec3::new((i as f32).cos() * 3.0, (i as f32).sin() * 3.0, 1.0 + 0.1 * i as f32);
+                PinholeCamera::new(k, look_at(eye, Vec3::ZERO, Vec3::Z))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn written_paths_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("camera_path.json");
+        let cameras = path();
+        write_camera_path(&file, &cameras, 24.0).unwrap();
+        let read = read_camera_path(&file).unwrap();
+        assert_eq!(read.fps, 24.0);
+        assert_eq!(read.cameras.len(), cameras.len());
+        for (a, b) in cameras.iter().zip(&read.cameras) {
+            assert!(a.camera_to_world.abs_diff_eq(b.camera_to_world, 1e-6));
+            let (ka, kb) = (a.intrinsics, b.intrinsics);
+            assert_eq!((ka.width, ka.height), (kb.width, kb.height));
+            assert!((ka.fx - kb.fx).abs() < 1e-3 && (ka.fy - kb.fy).abs() < 1e-3, "{ka:?} vs {kb:?}");
+            assert_eq!((ka.cx, ka.cy), (kb.cx, kb.cy));
+        }
+    }
+
+    /// A camera path as nerfstudio's viewer writes it: the vertical field of view sets the
+    /// focal length of both axes.
+    #[test]
+    fn nerfstudio_paths_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("path.json");
+        let text = r#"{"keyframes": [], "camera_type": "perspective", "render_height": 480, "render_width": 640,
+            "camera_path": [{"camera_to_world": [1,0,0,0.5, 0,1,0,-2, 0,0,1,3, 0,0,0,1], "fov": 90, "aspect": 1.3333}],
+            "fps": 24, "seconds": 4, "smoothness_value": 0.5, "is_cycle": false, "crop": null}"#;
+        std::fs::write(&file, text).unwrap();
+        let read = read_camera_path(&file).unwrap();
+        let c = read.cameras[0];
+        assert!((c.intrinsics.fy - 240.0).abs() < 1e-3 && (c.intrinsics.fx - 240.0).abs() < 1e-3);
+        assert_eq!(c.position(), Vec3::new(0.5, -2.0, 3.0));
+    }
+
+    #[test]
+    fn bad_paths_are_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("p.json");
+        let pose = "[1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]";
+        let cases = [
+            ("{", "malformed JSON"),
+            (r#"{"render_width": 10, "camera_path": []}"#, "render_height"),
+            (r#"{"render_width": 10, "render_height": 10, "camera_path": []}"#, "no camera"),
+            (
+                &format!(
+                    r#"{{"render_width": 10, "render_height": 10, "camera_type": "fisheye", "camera_path": [{{"camera_to_world": {pose}, "fov": 50}}]}}"#
+                ),
+                "fisheye",
+            ),
+            (
+                r#"{"render_width": 10, "render_height": 10, "camera_path": [{"camera_to_world": [1,2,3], "fov": 50}]}"#,
+                "16 finite",
+            ),
+            (
+                r#"{"render_width": 10, "render_height": 10, "camera_path": [{"camera_to_world": [2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "fov": 50}]}"#,
+                "rigid",
+            ),
+            (
+                &format!(
+                    r#"{{"render_width": 10, "render_height": 10, "camera_path": [{{"camera_to_world": {pose}, "fov": 0}}]}}"#
+                ),
+                "fov",
+            ),
+        ];
+        for (text, want) in cases {
+            std::fs::write(&file, text).unwrap();
+            let err = read_camera_path(&file).unwrap_err().to_string();
+            assert!(err.contains("p.json") && err.contains(want), "{text}: {err}");
+        }
+        assert!(read_camera_path(&dir.path().join("missing.json")).unwrap_err().to_string().contains("cannot read"));
+    }
+}
