@@ -1,6 +1,7 @@
 //! Captures: what a person with a camera and COLMAP would bring home, rendered. Photographs
 //! from a hand-held ring around the middle of a scene (`images/`), and the sparse model
-//! structure-from-motion would make of them (`sparse/0/`, COLMAP binary): the camera with its
+//! structure-from-motion would make of them (`sparse/0/`, COLMAP binary, and the same as
+//! nerfstudio's `transforms.json` with `sparse_pc.ply`): the camera with its
 //! lens, the poses (true, or perturbed as SfM leaves them) and points on surfaces that
 //! several photographs see. The renders' depth is kept in `depth/` as ground truth.
 
@@ -11,9 +12,12 @@ use glam::{DMat4, DQuat, DVec2, DVec3, Mat4, Vec3};
 use lucid_image::tonemap::ToneCurve;
 use lucid_image::{Image, WriteOptions, read_image, write_image, write_image_with};
 use lucid_scene::colmap::{ColmapCamera, ColmapImage, ColmapPoint, binary};
+use lucid_scene::dataset::{FrameRecord, write_transforms};
 use lucid_scene::{Intrinsics, LensDistortion, PinholeCamera, look_at};
 use rayon::prelude::*;
+use serde_json::json;
 
+use crate::point_cloud::{ColouredPoint, write_ply};
 use crate::rig::{splitmix64, unit_float};
 use crate::writer::{GenError, ViewRenderer};
 
@@ -232,20 +236,42 @@ fn write_sparse_model(root: &Path, spec: &CaptureSpec, k: &Intrinsics, poses: &[
         }
         tracks.push(elements);
     }
-    let images: Vec<ColmapImage> = poses
+    let solved: Vec<DMat4> = poses.iter().map(|pose| perturbed(pose.as_dmat4(), spec, &mut noise)).collect();
+    let images: Vec<ColmapImage> = solved
         .iter()
         .enumerate()
-        .map(|(i, pose)| {
-            let pose = perturbed(pose.as_dmat4(), spec, &mut noise);
-            ColmapImage::from_pose(i as u32 + 1, 1, format!("{}.png", name(i)), pose)
-        })
+        .map(|(i, pose)| ColmapImage::from_pose(i as u32 + 1, 1, format!("{}.png", name(i)), *pose))
         .collect();
     let camera = ColmapCamera::from_intrinsics(1, k).map_err(GenError::Spec)?;
     let sparse = root.join("sparse/0");
     write_bytes(&sparse.join("cameras.bin"), &binary::write::cameras(&BTreeMap::from([(1, camera)])))?;
     write_bytes(&sparse.join("images.bin"), &binary::write::images(&images, &observations))?;
     write_bytes(&sparse.join("points3D.bin"), &binary::write::points(&points, &tracks))?;
+    write_nerfstudio(root, k, &solved, &points)?;
     Ok(points.len())
+}
+
+/// The same reconstruction as nerfstudio's `ns-process-data` leaves it: `transforms.json`
+/// (OpenGL camera-to-world poses, the lens as `camera_model` and coefficients) and the sparse
+/// points as `sparse_pc.ply`.
+fn write_nerfstudio(root: &Path, k: &Intrinsics, poses: &[DMat4], points: &[ColmapPoint]) -> Result<(), GenError> {
+    let cloud: Vec<ColouredPoint> = points
+        .iter()
+        .map(|p| ColouredPoint { position: p.position.as_vec3(), normal: Vec3::ZERO, colour: p.colour })
+        .collect();
+    write_ply(&root.join("sparse_pc.ply"), &cloud)?;
+    let frames: Vec<FrameRecord> = poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| FrameRecord {
+            file_path: format!("images/{}.png", name(i)),
+            camera_to_world: pose.as_mat4(),
+            ..Default::default()
+        })
+        .collect();
+    let extra = [("camera_model", json!("OPENCV")), ("ply_file_path", json!("sparse_pc.ply"))];
+    write_transforms(&root.join("transforms.json"), k, None, &frames, &extra)?;
+    Ok(())
 }
 
 /// A pose as SfM would leave it: turned about a random axis and moved by normal errors.

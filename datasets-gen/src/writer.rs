@@ -417,7 +417,7 @@ pub fn finish_dataset(root: &Path, spec: &DatasetSpec) -> Result<bool, GenError>
                 }
             }
         }
-        write_transforms(&root.join(split.file_name()), &intrinsics, Some(spec.aabb), &records)?;
+        write_transforms(&root.join(split.file_name()), &intrinsics, Some(spec.aabb), &records, &[])?;
     }
     // One frame per training view (OLAT frames of a view share its geometry).
     let train: Vec<(String, glam::Mat4)> = frames

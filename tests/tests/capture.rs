@@ -86,8 +86,8 @@ fn a_distorted_capture_trains_worse_when_its_lens_is_ignored() {
         let f = f.unwrap().path();
         std::fs::copy(&f, d.join("pinhole/images").join(f.file_name().unwrap())).unwrap();
     }
-    let honoured = trained_psnr(d, "splat", "lens", "honoured", &["--steps", "1500"]);
-    let ignored = trained_psnr(d, "splat", "pinhole", "ignored", &["--steps", "1500"]);
+    let honoured = trained_psnr(d, "splat", "lens", "honoured", &["--steps", "1500", "--format", "colmap"]);
+    let ignored = trained_psnr(d, "splat", "pinhole", "ignored", &["--steps", "1500", "--format", "colmap"]);
     println!("lens honoured {honoured:.2} dB, ignored {ignored:.2} dB");
     assert!(honoured > ignored + LENS_MARGIN, "honoured {honoured:.2} dB, ignored {ignored:.2} dB");
 }
@@ -98,7 +98,11 @@ fn a_generated_capture_reads_back_as_the_scene_rendered() {
     let d = dir.path();
     capture(d, "cap", &["--k1", "-0.06"]);
     assert!(d.join("cap/sparse/0/cameras.bin").is_file() && d.join("cap/images/img_0015.png").is_file());
-    let ds = Dataset::open(d.join("cap")).unwrap();
+    let colmap = lucid_scene::dataset::OpenOptions {
+        format: Some(lucid_scene::dataset::DatasetFormat::Colmap),
+        ..Default::default()
+    };
+    let ds = Dataset::open_with(d.join("cap"), &colmap).unwrap();
     let names: Vec<&str> = ds.frames(Split::Test).iter().map(|f| f.file_path.as_str()).collect();
     assert_eq!(names, ["img_0000.png", "img_0008.png"], "every 8th photograph is held out");
     assert_eq!(ds.frames(Split::Train).len(), 14);
@@ -223,4 +227,52 @@ fn a_capture_models_outputs_are_in_the_datasets_own_frame() {
         let agreement = psnr(&lucid_image::read_image(a).unwrap(), &lucid_image::read_image(b).unwrap(), None).unwrap();
         assert!(agreement > 45.0, "orbit frame {k} rendered again from its path: {agreement:.1} dB");
     }
+}
+
+/// The generator's two descriptions of one capture, nerfstudio's (`transforms.json` with
+/// `sparse_pc.ply`) and COLMAP's, read as the same scene: splits, cameras with their lens,
+/// normalisation and sparse points. `--downscale` reads either at half size.
+#[test]
+fn nerfstudio_and_colmap_descriptions_of_a_capture_agree() {
+    use lucid_scene::dataset::{DatasetFormat, OpenOptions};
+    let dir = temp_dir();
+    let d = dir.path();
+    capture(d, "cap", &["--k1", "-0.06", "--pose-noise", "0.5", "--position-noise", "0.01"]);
+    assert!(d.join("cap/transforms.json").is_file() && d.join("cap/sparse_pc.ply").is_file());
+    let open = |format, downscale| {
+        let options = OpenOptions { format: Some(format), downscale, ..Default::default() };
+        Dataset::open_with(d.join("cap"), &options).unwrap()
+    };
+    for downscale in [None, Some(2)] {
+        let (ns, colmap) = (open(DatasetFormat::Transforms, downscale), open(DatasetFormat::Colmap, downscale));
+        assert_eq!(ns.splits.len(), colmap.splits.len());
+        for (a, b) in ns.splits.iter().zip(&colmap.splits) {
+            assert_eq!(a.split, b.split);
+            assert_eq!(a.frames.len(), b.frames.len());
+            for (f, g) in a.frames.iter().zip(&b.frames) {
+                assert_eq!(f.image_path, g.image_path);
+                assert_eq!(f.resize_to, g.resize_to);
+                let (k, l) = (f.camera.intrinsics, g.camera.intrinsics);
+                assert_eq!((k.width, k.height, k.distortion), (l.width, l.height, l.distortion));
+                assert!((k.fx - l.fx).abs() < 1e-3 && (k.cx - l.cx).abs() < 1e-3 && (k.cy - l.cy).abs() < 1e-3);
+                assert!(
+                    f.camera.camera_to_world.abs_diff_eq(g.camera.camera_to_world, 1e-4),
+                    "{}: {} vs {}",
+                    f.file_path,
+                    f.camera.camera_to_world,
+                    g.camera.camera_to_world
+                );
+            }
+        }
+        let (n, m) = (ns.normalisation.expect("normalised"), colmap.normalisation.unwrap());
+        assert!(n.centre.distance(m.centre) < 1e-4 && (n.scale / m.scale - 1.0).abs() < 1e-5, "{n:?} vs {m:?}");
+        assert_eq!(ns.points.len(), colmap.points.len());
+        for (p, q) in ns.points.iter().zip(&colmap.points) {
+            assert!(p.position.distance(q.position) < 1e-4 && p.colour == q.colour);
+        }
+    }
+    let half = open(DatasetFormat::Transforms, Some(2));
+    assert_eq!(half.frames(Split::Train)[0].resize_to, Some((32, 24)));
+    // Without a choice, the transforms file is read (nerfstudio's convention).
+    assert_eq!(Dataset::open(d.join("cap")).unwrap().frames(Split::Test)[0].file_path, "images/img_0000.png");
 }

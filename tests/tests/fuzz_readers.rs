@@ -126,7 +126,7 @@ fn ply_readers_survive_damaged_files() {
     let points = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
                   property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n\
                   0.1 0.2 0.3 255 0 0\n-1 2.5 0 0 128 0\n3 3 3 1 2 3\n";
-    fuzz("point ply", &case, points.as_bytes().to_vec(), lucid_splat::ply::read_point_cloud);
+    fuzz("point ply", &case, points.as_bytes().to_vec(), lucid_scene::point_cloud::read_point_cloud);
 }
 
 #[test]

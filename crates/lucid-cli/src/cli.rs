@@ -362,12 +362,30 @@ pub struct DatasetArgs {
     /// resized on reading.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     pub downscale: Option<u32>,
+    /// Which description of the cameras to read where a folder holds both (nerfstudio's
+    /// layout): transforms files, or the COLMAP model. Default: transforms files first.
+    #[arg(long, value_enum)]
+    pub format: Option<DatasetFormatArg>,
+}
+
+/// `--format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DatasetFormatArg {
+    /// transforms_*.json or transforms.json.
+    Transforms,
+    /// sparse/0 (COLMAP, binary or text).
+    Colmap,
 }
 
 impl DatasetArgs {
     /// The reader's options.
     pub fn options(&self) -> lucid_scene::dataset::OpenOptions {
-        lucid_scene::dataset::OpenOptions { holdout_every: self.holdout_every, downscale: self.downscale }
+        use lucid_scene::dataset::DatasetFormat;
+        let format = self.format.map(|f| match f {
+            DatasetFormatArg::Transforms => DatasetFormat::Transforms,
+            DatasetFormatArg::Colmap => DatasetFormat::Colmap,
+        });
+        lucid_scene::dataset::OpenOptions { holdout_every: self.holdout_every, downscale: self.downscale, format }
     }
 }
 

@@ -17,6 +17,7 @@ pub mod dataset;
 pub mod evaluation;
 pub mod held_out;
 pub mod lens;
+pub mod point_cloud;
 pub mod prefetch;
 pub mod ray;
 pub mod sampling;

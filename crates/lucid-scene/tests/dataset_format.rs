@@ -80,7 +80,7 @@ fn written_datasets_read_back() {
         ..Default::default()
     };
     let aabb = (Vec3::splat(-1.0), Vec3::splat(1.0));
-    write_transforms(&dir.path().join("transforms_train.json"), &k, Some(aabb), &[frame]).unwrap();
+    write_transforms(&dir.path().join("transforms_train.json"), &k, Some(aabb), &[frame], &[]).unwrap();
 
     let ds = Dataset::open(dir.path()).unwrap();
     let f = &ds.frames(Split::Train)[0];

@@ -32,7 +32,10 @@ fn opencv_keys_bend_the_rays_through_the_lens_inverse() {
         LensDistortion::OpenCv { radial: [-0.12, 0.03, 0.0, 0.0], rational: [0.0; 3], tangential: [0.001, -0.002] };
     assert_eq!(camera.intrinsics.distortion, lens);
     // A world point projects (through the lens) to a pixel whose ray passes through the point.
-    for p in [Vec3::new(0.4, -0.3, 0.0), Vec3::new(-0.55, 0.35, 0.5), Vec3::new(0.0, 0.0, -1.0)] {
+    // (A nerfstudio file is a capture: its points are seen in the normalised frame.)
+    let n = ds.normalisation.expect("a nerfstudio capture is normalised");
+    let to_scene = |p: Vec3| n.to_scene(p.as_dvec3()).as_vec3();
+    for p in [Vec3::new(0.4, -0.3, 0.0), Vec3::new(-0.55, 0.35, 0.5), Vec3::new(0.0, 0.0, -1.0)].map(to_scene) {
         let px = camera.project(p).unwrap();
         let ray = camera.generate_ray(px.x, px.y, Vec2::ZERO);
         let t = (p - ray.origin).dot(ray.direction);
@@ -40,7 +43,7 @@ fn opencv_keys_bend_the_rays_through_the_lens_inverse() {
     }
     // Away from the centre the lens moves the pixel, so ignoring the keys would be wrong.
     let pinhole = camera.intrinsics.without_distortion();
-    let corner = Vec3::new(-1.1, 0.85, 0.0);
+    let corner = to_scene(Vec3::new(-1.1, 0.85, 0.0));
     let local = camera.camera_to_world.inverse().transform_point3(corner);
     let moved = (camera.intrinsics.project(local).unwrap() - pinhole.project(local).unwrap()).length();
     assert!(moved > 0.4, "the lens moves the corner by {moved} px");
@@ -113,7 +116,7 @@ fn written_lenses_read_back() {
         };
         let frame =
             FrameRecord { file_path: "a.png".into(), camera_to_world: glam::Mat4::IDENTITY, ..Default::default() };
-        write_transforms(&dir.path().join("transforms.json"), &k, None, &[frame]).unwrap();
+        write_transforms(&dir.path().join("transforms.json"), &k, None, &[frame], &[]).unwrap();
         let ds = Dataset::open(dir.path()).unwrap();
         assert_eq!(ds.frames(Split::Train)[0].camera.intrinsics, k);
     }

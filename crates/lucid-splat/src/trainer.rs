@@ -89,7 +89,7 @@ pub fn initial_cloud(config: &SplatConfig, dataset: &Dataset, data: &ImageSet) -
     let mut points: Vec<(Vec3, [f32; 3])> = if config.init.use_points && !dataset.points.is_empty() {
         dataset.points.iter().map(|p| (p.position, p.colour.map(|c| f32::from(c) / 255.0))).collect()
     } else if config.init.use_points && ply.exists() {
-        crate::ply::read_point_cloud(&ply).map_err(|e| e.to_string())?
+        lucid_scene::point_cloud::read_point_cloud(&ply).map_err(|e| e.to_string())?
     } else {
         SplatCloud::random_points_in_box(config.init.random_points, lo, hi, config.train.seed)
     };

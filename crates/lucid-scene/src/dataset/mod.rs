@@ -24,11 +24,14 @@
 //! refused.
 //!
 //! A folder without transforms files but with a COLMAP model (`sparse/0/`) and `images/` is a
-//! capture ([`capture`]). A dataset without split files (a lone `transforms.json`, or a
-//! capture) holds out every 8th image by sorted name as its test split.
+//! capture ([`capture`]), and so is a lone nerfstudio `transforms.json` (one that names its
+//! `camera_model`, `applied_transform` or `ply_file_path`), normalised the same way. A dataset
+//! without split files (a lone `transforms.json`, or a capture) holds out every 8th image by
+//! sorted name as its test split.
 
 pub mod capture;
 pub mod images;
+mod nerfstudio;
 mod read;
 pub mod summary;
 mod write;
@@ -50,12 +53,24 @@ pub struct OpenOptions {
     pub holdout_every: usize,
     /// Read captures at 1/N of their size: from `images_N/` where it exists, else resized.
     pub downscale: Option<u32>,
+    /// Which description to read where a folder holds several (nerfstudio's layout keeps both
+    /// a `transforms.json` and a COLMAP model); `None`: transforms files first.
+    pub format: Option<DatasetFormat>,
+}
+
+/// The description of a dataset's cameras.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DatasetFormat {
+    /// `transforms_*.json` or a lone `transforms.json` (Blender, instant-ngp, nerfstudio).
+    Transforms,
+    /// A COLMAP sparse model with `images/`.
+    Colmap,
 }
 
 impl Default for OpenOptions {
     /// The Mip-NeRF 360 / LLFF convention: every 8th image held out, full size.
     fn default() -> Self {
-        Self { holdout_every: 8, downscale: None }
+        Self { holdout_every: 8, downscale: None, format: None }
     }
 }
 

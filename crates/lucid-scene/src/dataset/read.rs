@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 use serde_json::{Map, Value};
 
-use super::{Dataset, DatasetError, Frame, FrameExtras, OpenOptions, SceneBounds, Split, SplitFrames, capture};
+use super::{
+    Dataset, DatasetError, DatasetFormat, Frame, FrameExtras, OpenOptions, SceneBounds, Split, SplitFrames, capture,
+};
 use crate::{Intrinsics, LensDistortion, PinholeCamera};
 
 /// Extensions tried, in order, when a `file_path` has none (the Blender set writes
@@ -23,6 +25,13 @@ pub(super) fn open(root: &Path, options: &OpenOptions) -> Result<Dataset, Datase
         };
         return Err(DatasetError::Io { path: root.to_path_buf(), source });
     }
+    let colmap = || match crate::colmap::find_model(root) {
+        Some(model) => capture::open(root, &model, options),
+        None => Err(DatasetError::NotADataset { path: root.to_path_buf() }),
+    };
+    if options.format == Some(DatasetFormat::Colmap) {
+        return colmap();
+    }
     let mut files = Vec::new();
     for split in Split::ALL {
         let json = root.join(split.file_name());
@@ -34,9 +43,9 @@ pub(super) fn open(root: &Path, options: &OpenOptions) -> Result<Dataset, Datase
     if files.is_empty() {
         let single = root.join("transforms.json");
         if !single.is_file() {
-            return match crate::colmap::find_model(root) {
-                Some(model) => capture::open(root, &model, options),
-                None => Err(DatasetError::NotADataset { path: root.to_path_buf() }),
+            return match options.format {
+                Some(DatasetFormat::Transforms) => Err(DatasetError::NotADataset { path: root.to_path_buf() }),
+                _ => colmap(),
             };
         }
         files.push(parse(&single, Split::Train)?);
@@ -53,7 +62,12 @@ pub(super) fn open(root: &Path, options: &OpenOptions) -> Result<Dataset, Datase
         splits.iter_mut().for_each(|s| s.bounds = single.bounds);
     }
     check_camera_centres(&splits)?;
-    Ok(Dataset { root: root.to_path_buf(), splits, normalisation: None, points: Vec::new() })
+    super::nerfstudio::downscale(&mut splits, options.downscale.unwrap_or(1))?;
+    let file = &files[0];
+    let mut points = super::nerfstudio::sparse_points(&file.json, file.value.as_object())?;
+    let normalisation = (lone && super::nerfstudio::is_capture(&file.value, &splits))
+        .then(|| super::nerfstudio::normalise(&mut splits, &mut points));
+    Ok(Dataset { root: root.to_path_buf(), splits, normalisation, points })
 }
 
 /// Reads and checks one file; see [`Dataset::open`].

@@ -40,12 +40,14 @@ pub struct FrameRecord {
     pub focus_distance: Option<f32>,
 }
 
-/// Writes a transforms file atomically (temporary file, then rename).
+/// Writes a transforms file atomically (temporary file, then rename), with `extra` keys at
+/// the top level (nerfstudio's `ply_file_path`, or `camera_model` for a pinhole capture).
 pub fn write_transforms(
     path: &Path,
     intrinsics: &Intrinsics,
     aabb: Option<(Vec3, Vec3)>,
     frames: &[FrameRecord],
+    extra: &[(&str, Value)],
 ) -> Result<(), DatasetError> {
     let mut root = Map::new();
     root.insert("camera_angle_x".into(), json!(intrinsics.fov_x()));
@@ -80,6 +82,9 @@ pub fn write_transforms(
     }
     if let Some((min, max)) = aabb {
         root.insert("aabb".into(), json!([min.to_array(), max.to_array()]));
+    }
+    for (key, value) in extra {
+        root.entry(*key).or_insert_with(|| value.clone());
     }
     root.insert("frames".into(), Value::Array(frames.iter().map(frame_json).collect()));
     let text = serde_json::to_string_pretty(&Value::Object(root)).expect("JSON values always serialise");

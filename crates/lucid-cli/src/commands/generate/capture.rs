@@ -111,7 +111,7 @@ pub fn run(args: &GenArgs, loaded: lucid_trace::LoadedScene) -> anyhow::Result<(
     .with_context(|| format!("generating {}", args.output.display()))?;
     bar.finish_and_clear();
     println!(
-        "{}: rendered {} photographs, {} already there ({} at {}x{}) in {:.1} s; sparse model with {} points in sparse/0",
+        "{}: rendered {} photographs, {} already there ({} at {}x{}) in {:.1} s; sparse model with {} points in sparse/0 (COLMAP) and transforms.json + sparse_pc.ply (nerfstudio)",
         args.output.display(),
         out.rendered,
         out.skipped,
