@@ -139,6 +139,9 @@ pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
+/// Draws of another pixel before a ray whose pixel is masked out is given up.
+const MASK_REDRAWS: usize = 32;
+
 impl NerfTrainer {
     /// A fresh model over the scene box `(min, max)`.
     pub fn new(config: NerfConfig, bounds: (Vec3, Vec3), pixel_angle: f32, device: Device) -> Self {
@@ -247,19 +250,32 @@ impl NerfTrainer {
         let mut rays = Vec::with_capacity(n_rays);
         let mut targets = Vec::with_capacity(n_rays);
         let mut picked = Vec::with_capacity(n_rays);
-        for _ in 0..n_rays {
-            let (img, k) = match &self.error_map {
-                Some(map) if rng.uniform() < cfg.error_sampling => map.sample(&mut rng),
-                _ => {
-                    let mut k = rng.below(total);
-                    let mut img = 0;
-                    while k >= sizes[img] {
-                        k -= sizes[img];
-                        img += 1;
-                    }
-                    (img, k)
+        let error_map = self.error_map.as_ref();
+        let pick = |rng: &mut Rng| match error_map {
+            Some(map) if rng.uniform() < cfg.error_sampling => map.sample(rng),
+            _ => {
+                let mut k = rng.below(total);
+                let mut img = 0;
+                while k >= sizes[img] {
+                    k -= sizes[img];
+                    img += 1;
                 }
-            };
+                (img, k)
+            }
+        };
+        for _ in 0..n_rays {
+            let (mut img, mut k) = pick(&mut rng);
+            // A masked pixel teaches nothing: draw again, a bounded number of times so that
+            // views masked almost entirely cannot stall the step (unmasked sets draw once).
+            for _ in 0..MASK_REDRAWS {
+                if data.keeps(img, k) {
+                    break;
+                }
+                (img, k) = pick(&mut rng);
+            }
+            if !data.keeps(img, k) {
+                continue;
+            }
             let w = data.size(img).0;
             let (x, y) = (k % w, k / w);
             let ray = data.cameras[img].generate_ray(x as f32 + rng.uniform(), y as f32 + rng.uniform(), Vec2::ZERO);

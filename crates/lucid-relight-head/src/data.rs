@@ -155,7 +155,7 @@ impl OlatSet {
     /// images the geometry stage is trained on, sRGB-encoded with straight alpha like
     /// [`ImageSet::load`]'s.
     pub fn uniformly_lit(&self) -> Result<ImageSet, RelightError> {
-        let mut set = ImageSet { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
+        let mut set = ImageSet::default();
         for view in &self.views {
             let lights: Vec<&LitImage> = view.lights.iter().filter(|l| !l.held_out).collect();
             let dirs: Vec<Vec3> = lights.iter().map(|l| l.direction).collect();

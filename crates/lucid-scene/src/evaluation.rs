@@ -122,11 +122,14 @@ pub fn evaluate(
         let seconds = start.elapsed().as_secs_f64();
         let truth = ground_truth(set, i, renderer.background());
         let opaque = view.colour.map(|p| [p[0], p[1], p[2], 1.0]);
+        // Masked pixels (a person walking through a capture) are not scored.
+        let mask = set.mask_weights(i);
         let score = ViewScore {
             image: set.paths[i].display().to_string(),
-            psnr: psnr(&opaque, &truth, None).expect("same size"),
+            // A view masked out entirely has no score.
+            psnr: psnr(&opaque, &truth, mask.as_deref()).unwrap_or(f64::NAN),
             // SSIM's 11-pixel window does not fit images smaller than it: no score there.
-            ssim: ssim(&opaque, &truth, None).unwrap_or(f64::NAN),
+            ssim: ssim(&opaque, &truth, mask.as_deref()).unwrap_or(f64::NAN),
             seconds,
             samples: view.samples,
         };
@@ -156,7 +159,7 @@ pub fn nearest_view_psnr(train: &ImageSet, test: &ImageSet, background: [f32; 3]
                 train.cameras[a].position().distance(p).total_cmp(&train.cameras[b].position().distance(p))
             })?;
             let (guess, truth) = (ground_truth(train, nearest, background), ground_truth(test, i, background));
-            psnr(&guess, &truth, None).ok()
+            psnr(&guess, &truth, test.mask_weights(i).as_deref()).ok()
         })
         .collect();
     (!scores.is_empty()).then(|| scores.iter().sum::<f64>() / scores.len() as f64)

@@ -92,17 +92,6 @@ fn lenses_that_cannot_be_honoured_are_errors_naming_the_file_and_model() {
 }
 
 #[test]
-fn masks_are_refused_until_they_are_honoured() {
-    let dir = tempfile::tempdir().unwrap();
-    write_image(dir.path().join("a.png"), &Image::black(40, 30)).unwrap();
-    let json = json!({"fl_x": 50.0, "frames": [{ "file_path": "a.png", "mask_path": "masks/a.png",
-        "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]] }]});
-    std::fs::write(dir.path().join("transforms.json"), json.to_string()).unwrap();
-    let message = Dataset::open(dir.path()).unwrap_err().to_string();
-    assert!(message.contains("transforms.json") && message.contains("frames[0].mask_path"), "{message}");
-}
-
-#[test]
 fn written_lenses_read_back() {
     use lucid_scene::dataset::{FrameRecord, write_transforms};
     let dir = tempfile::tempdir().unwrap();

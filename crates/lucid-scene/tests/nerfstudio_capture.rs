@@ -105,3 +105,42 @@ fn downscaled_folders_are_read_and_checked() {
     let err = Dataset::open_with(d, &half).unwrap_err().to_string();
     assert!(err.contains("images_2/b.png") && err.contains("20x15"), "{err}");
 }
+
+/// nerfstudio's masks: dark pixels are ignored; a mask is checked against its image and
+/// follows it when the image is read downscaled.
+#[test]
+fn masks_say_which_pixels_count() {
+    use lucid_scene::dataset::images::ImageSet;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, json!({}));
+    let mut root: Value = serde_json::from_str(&std::fs::read_to_string(d.join("transforms.json")).unwrap()).unwrap();
+    root["frames"][0]["mask_path"] = json!("masks/a.png");
+    std::fs::write(d.join("transforms.json"), root.to_string()).unwrap();
+    let err = open(d).unwrap_err().to_string();
+    assert!(err.contains("frames[0].mask_path") && err.contains("not found"), "{err}");
+
+    // The left quarter is masked out.
+    std::fs::create_dir(d.join("masks")).unwrap();
+    let mask = Image::from_fn(40, 30, |x, _| if x < 10 { [0.0; 4] } else { [1.0; 4] });
+    write_image(d.join("masks/a.png"), &mask).unwrap();
+    let ds = open(d).unwrap();
+    let set = ImageSet::load(ds.frames(Split::Train)).unwrap();
+    assert!(set.masks[1].is_none() && set.keeps(1, 0));
+    let kept = set.masks[0].as_ref().unwrap();
+    assert_eq!(kept.iter().filter(|k| !**k).count(), 10 * 30);
+    assert!(!set.keeps(0, 9) && set.keeps(0, 10) && !set.keeps(0, 40 * 29));
+    assert_eq!(set.mask_weights(0).unwrap()[10], 1.0);
+
+    // Read at half size, the full-size mask is resized with its image.
+    let half = OpenOptions { holdout_every: 0, downscale: Some(2), ..Default::default() };
+    let set = ImageSet::load(Dataset::open_with(d, &half).unwrap().frames(Split::Train)).unwrap();
+    let kept = set.masks[0].as_ref().unwrap();
+    assert_eq!(kept.len(), 20 * 15);
+    assert!(!kept[0] && !kept[4] && kept[5] && kept[19]);
+
+    // A mask of another shape is an error naming it.
+    write_image(d.join("masks/a.png"), &Image::black(30, 30)).unwrap();
+    let err = ImageSet::load(open(d).unwrap().frames(Split::Train)).unwrap_err().to_string();
+    assert!(err.contains("masks/a.png") && err.contains("30x30"), "{err}");
+}

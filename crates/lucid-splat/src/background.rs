@@ -50,7 +50,7 @@ mod tests {
         // The left half of the image red, the right half blue.
         let pixels =
             (0..30 * 40).map(|i| if i % 40 < 20 { [1.0, 0.0, 0.0, 1.0] } else { [0.0, 0.0, 1.0, 1.0] }).collect();
-        let data = ImageSet { cameras: vec![camera], pixels: vec![pixels], paths: vec![], lenses: vec![None] };
+        let data = ImageSet { cameras: vec![camera], pixels: vec![pixels], lenses: vec![None], ..Default::default() };
         assert!(data.is_opaque());
         let points = background_points(&data, Vec3::ZERO, 4000);
         // A 1.2 rad by 0.9 rad view sees about 8% of the sphere.

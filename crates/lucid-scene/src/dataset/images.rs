@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 /// Images of one split: colours sRGB-encoded in `[0,1]` (the space NeRFs and splats are
 /// trained and scored in) with straight alpha.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct ImageSet {
     /// Camera of each image.
     pub cameras: Vec<PinholeCamera>,
@@ -24,6 +24,9 @@ pub struct ImageSet {
     /// Thin lens of each view, `(aperture radius, focus distance)`, where the dataset gives
     /// one (e.g. the light-field rig's refocused ground truths).
     pub lenses: Vec<Option<(f32, f32)>>,
+    /// Which pixels of each view to learn from and score, where the dataset masks some
+    /// (`mask_path`); `None` (or a missing entry): every pixel.
+    pub masks: Vec<Option<Vec<bool>>>,
 }
 
 impl ImageSet {
@@ -33,15 +36,18 @@ impl ImageSet {
             .par_iter()
             .map(|f| {
                 let image = lucid_image::read_image(&f.image_path)?;
-                Ok(match f.resize_to {
+                let image = match f.resize_to {
                     Some((w, h)) => image.resized(w as usize, h as usize),
                     None => image,
-                })
+                };
+                let mask = f.extras.mask_path.as_deref().map(|p| read_mask(p, image.dimensions())).transpose()?;
+                Ok((image, mask))
             })
             .collect();
-        let mut set = Self { cameras: Vec::new(), pixels: Vec::new(), paths: Vec::new(), lenses: Vec::new() };
-        for (frame, image) in frames.iter().zip(images) {
-            let image = image?;
+        let mut set = Self::default();
+        for (frame, read) in frames.iter().zip(images) {
+            let (image, mask) = read?;
+            set.masks.push(mask);
             let pixels = image
                 .pixels()
                 .iter()
@@ -67,7 +73,7 @@ impl ImageSet {
             return std::borrow::Cow::Borrowed(self);
         }
         // Built afresh rather than cloned and overwritten: a capture's pixels are copied once.
-        let (cameras, pixels) = self
+        let (cameras, pixels): (Vec<_>, Vec<_>) = self
             .cameras
             .iter()
             .zip(&self.pixels)
@@ -81,7 +87,36 @@ impl ImageSet {
                 (PinholeCamera { intrinsics: pinhole, ..*camera }, pixels)
             })
             .unzip();
-        std::borrow::Cow::Owned(ImageSet { cameras, pixels, paths: self.paths.clone(), lenses: self.lenses.clone() })
+        let masks = self
+            .masks
+            .iter()
+            .zip(self.cameras.iter().zip(&cameras))
+            .map(|(mask, (lens, pinhole))| {
+                let mask = mask.as_ref()?;
+                let values: Vec<[f32; 1]> = mask.iter().map(|&m| [if m { 1.0 } else { 0.0 }]).collect();
+                let warped = crate::undistort::resample(&values, &lens.intrinsics, &pinhole.intrinsics);
+                Some(warped.iter().map(|v| v[0] > 0.5).collect())
+            })
+            .collect();
+        std::borrow::Cow::Owned(ImageSet {
+            cameras,
+            pixels,
+            paths: self.paths.clone(),
+            lenses: self.lenses.clone(),
+            masks,
+        })
+    }
+
+    /// Whether pixel `k` of view `i` is learnt from and scored (not masked out).
+    #[inline]
+    pub fn keeps(&self, i: usize, k: usize) -> bool {
+        self.masks.get(i).and_then(Option::as_ref).is_none_or(|m| m[k])
+    }
+
+    /// View `i`'s mask as weights for the metrics (1 kept, 0 ignored), if it has one.
+    pub fn mask_weights(&self, i: usize) -> Option<Vec<f32>> {
+        let mask = self.masks.get(i)?.as_ref()?;
+        Some(mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect())
     }
 
     /// Whether no pixel is transparent: the images see a background that a model must
@@ -111,6 +146,27 @@ impl ImageSet {
         let sum: f32 = self.cameras.iter().map(|c| 1.0 / c.intrinsics.fx).sum();
         sum / self.cameras.len().max(1) as f32
     }
+}
+
+/// The mask in `path` for an image of `size`: a pixel is kept where the mask's first channel
+/// is at least one half. A mask of another size with the image's aspect ratio (a full-size
+/// mask beside a downscaled image) is resized to it; any other size is an error naming it.
+fn read_mask(path: &std::path::Path, size: (usize, usize)) -> Result<Vec<bool>, lucid_image::ImageError> {
+    let mask = lucid_image::read_image(path)?;
+    let (mw, mh) = mask.dimensions();
+    let (w, h) = size;
+    let mask = if (mw, mh) == (w, h) {
+        mask
+    } else if (mw * h).abs_diff(mh * w) <= mw.max(w) {
+        mask.resized(w, h)
+    } else {
+        return Err(lucid_image::ImageError::Malformed {
+            path: path.to_path_buf(),
+            format: "mask",
+            reason: format!("the mask is {mw}x{mh}, its image {w}x{h}"),
+        });
+    };
+    Ok(mask.pixels().iter().map(|p| p[0] >= 0.5).collect())
 }
 
 /// How the training cameras saw the scene: the defaults of novel-view paths.

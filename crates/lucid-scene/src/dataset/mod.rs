@@ -132,6 +132,9 @@ pub struct FrameExtras {
     pub albedo_path: Option<PathBuf>,
     /// The lat-long environment map the frame is lit by (`environment_file_path`).
     pub environment_path: Option<PathBuf>,
+    /// Which pixels to learn from and score (`mask_path`, nerfstudio's): where the mask is
+    /// dark (below one half) the pixel is ignored, e.g. a person walking through a capture.
+    pub mask_path: Option<PathBuf>,
     /// Exposure time in seconds (`exposure_time`).
     pub exposure_time: Option<f32>,
     /// Direction towards a directional light, world space (`light_direction`).

@@ -290,14 +290,6 @@ impl Context<'_> {
             .to_string();
         let image_path = self.resolve_image(base, &file_path).map_err(|reason| self.invalid(&path_key, reason))?;
         let pose = self.matrix(frame, &format!("{key}.transform_matrix"))?;
-        // A mask says which pixels to ignore (people walking through a capture); training on
-        // them anyway would be silently wrong, so until masks are honoured they are refused.
-        if frame.get("mask_path").is_some_and(|v| !v.is_null()) {
-            return Err(self.invalid(
-                &format!("{key}.mask_path"),
-                "per-frame masks are not supported yet; remove the key to train on every pixel",
-            ));
-        }
         let intrinsics = self.intrinsics(root, frame, key, &image_path)?;
         let extras = FrameExtras {
             hdr_path: self.extra_path(base, frame, "hdr_file_path", key)?,
@@ -305,6 +297,7 @@ impl Context<'_> {
             normal_path: self.extra_path(base, frame, "normal_file_path", key)?,
             albedo_path: self.extra_path(base, frame, "albedo_file_path", key)?,
             environment_path: self.extra_path(base, frame, "environment_file_path", key)?,
+            mask_path: self.extra_path(base, frame, "mask_path", key)?,
             exposure_time: self.positive(frame, "exposure_time", &format!("{key}.exposure_time"))?,
             light_direction: self.vec3(frame, "light_direction", &format!("{key}.light_direction"))?,
             held_out_light: match frame.get("held_out_light") {
@@ -349,7 +342,7 @@ impl Context<'_> {
         name: &str,
         key: &str,
     ) -> Result<Option<PathBuf>, DatasetError> {
-        let Some(v) = frame.get(name) else { return Ok(None) };
+        let Some(v) = frame.get(name).filter(|v| !v.is_null()) else { return Ok(None) };
         let full_key = format!("{key}.{name}");
         let rel = v.as_str().ok_or_else(|| self.invalid(&full_key, "expected a string"))?;
         let path = base.join(rel);

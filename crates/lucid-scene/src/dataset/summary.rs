@@ -64,6 +64,7 @@ fn split_summary(split: &SplitFrames) -> Value {
             "exposure_time": count_with(&|f| f.extras.exposure_time.is_some()),
             "light_direction": count_with(&|f| f.extras.light_direction.is_some()),
             "thin_lens": count_with(&|f| f.extras.focus_distance.is_some()),
+            "mask": count_with(&|f| f.extras.mask_path.is_some()),
         },
     })
 }
