@@ -212,7 +212,9 @@ fn a_capture_models_outputs_are_in_the_datasets_own_frame() {
 
     // An orbit circles the capture's centre at the cameras' mean distance, in its units, and
     // its written path renders it again.
-    lucid_in(d, &["render", "s/checkpoint.lucid", "-o", "orbit", "--frames", "3"]).success();
+    lucid_in(d, &["render", "s/checkpoint.lucid", "-o", "orbit", "--frames", "3", "--video", "orbit.apng"]).success();
+    let video = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(d.join("orbit.apng")).unwrap()));
+    assert_eq!(video.read_info().unwrap().info().animation_control.map(|a| a.num_frames), Some(3));
     let path = read_camera_path(&d.join("orbit/camera_path.json")).unwrap();
     let mean = model.images.iter().map(|im| im.camera_to_world().w_axis.truncate().distance(frame.centre)).sum::<f64>()
         / model.images.len() as f64;

@@ -723,6 +723,10 @@ pub struct RenderArgs {
     /// there too.
     #[arg(long, conflicts_with_all = ["radius", "elevation"])]
     pub camera_path: Option<PathBuf>,
+    /// Checkpoints: also write the frames as one animated PNG (.png or .apng), looping at the
+    /// path's frame rate (30 fps for an orbit or spiral).
+    #[arg(long)]
+    pub video: Option<PathBuf>,
     /// Checkpoints: frames along the path (the output is a folder of numbered PNGs and depth EXRs).
     #[arg(long, default_value_t = 60)]
     pub frames: usize,

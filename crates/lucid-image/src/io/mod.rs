@@ -4,6 +4,7 @@
 //! beside the target, which is renamed over the target only once complete, so a failed
 //! or interrupted write never leaves a half-written image behind.
 
+mod animation;
 mod exr_file;
 mod ldr;
 mod pfm;
@@ -15,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use crate::{Image, ImageError};
 
+pub use animation::AnimatedPng;
 pub use pfm::{PfmEndianness, read_pfm, write_pfm};
 
 /// The file formats Lucid reads and writes.

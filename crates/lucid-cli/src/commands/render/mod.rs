@@ -16,6 +16,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.scene.extension().is_some_and(|e| e == "lucid") || lucid_nerf::checkpoint::is_checkpoint(&args.scene) {
         return model::run(args);
     }
+    if args.camera_path.is_some() || args.video.is_some() {
+        bail!(
+            "{}: --camera-path and --video render trained models (checkpoints), not scene files",
+            args.scene.display()
+        );
+    }
     let format = ImageFormat::from_path(&args.output)?;
     if !matches!(format, ImageFormat::Exr | ImageFormat::Png) {
         bail!("{}: render writes .exr or .png (with the other beside it)", args.output.display());

@@ -1,6 +1,7 @@
 //! `lucid render CHECKPOINT -o DIR --path orbit|spiral --frames N`, or `--camera-path FILE`:
 //! novel views of a trained model along a camera path, as numbered PNGs with depth EXRs and
-//! the path itself (`camera_path.json`, nerfstudio's format). `--aperture A --focus D`
+//! the path itself (`camera_path.json`, nerfstudio's format), and with `--video FILE` as one
+//! animated PNG that plays in a browser. `--aperture A --focus D`
 //! renders through a thin lens (depth of field) by averaging rays over the aperture.
 //!
 //! A model trained on a capture works in normalised coordinates; everything this command
@@ -50,12 +51,28 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
+    let k = cameras[0].intrinsics;
+    let mut video = match &args.video {
+        Some(path) => {
+            let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            if !matches!(ext.as_deref(), Some("png" | "apng")) {
+                bail!("{}: --video writes an animated PNG (.png or .apng)", path.display());
+            }
+            let (w, h) = (k.width as usize, k.height as usize);
+            Some(lucid_image::io::AnimatedPng::create(path, w, h, cameras.len() as u32, fps)?)
+        }
+        None => None,
+    };
     let bar = crate::progress::bar(cameras.len() as u64, "rendering");
     let started = std::time::Instant::now();
     loaded.with_renderer(|renderer| -> anyhow::Result<()> {
         for (k, camera) in cameras.iter().enumerate() {
             let out = renderer.render_view(camera, lens, args.lens_rays, k as u64);
-            write_image(args.output.join(format!("frame_{k:04}.png")), &out.linear_colour())?;
+            let colour = out.linear_colour();
+            write_image(args.output.join(format!("frame_{k:04}.png")), &colour)?;
+            if let Some(video) = &mut video {
+                video.push(&colour)?;
+            }
             let depth = out.depth_image(frame.as_ref());
             let depth_options = WriteOptions { single_channel: true, ..Default::default() };
             write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &depth, depth_options)?;
@@ -64,6 +81,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Ok(())
     })?;
     bar.finish_and_clear();
+    if let Some(video) = video {
+        video.finish()?;
+    }
     let seconds = started.elapsed().as_secs_f64();
     let path_file = args.output.join("camera_path.json");
     write_camera_path(
@@ -71,7 +91,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &in_frame(cameras.clone(), frame.as_ref(), SceneNormalisation::pose_to_dataset),
         fps,
     )?;
-    let k = cameras[0].intrinsics;
     println!(
         "rendered {} frames of {}x{} in {seconds:.1} s ({:.3} s per frame) -> {} (path: {}{})",
         cameras.len(),
