@@ -13,12 +13,12 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_image::{Image, WriteOptions, read_image, write_image, write_image_with};
 use lucid_scene::colmap::{ColmapCamera, ColmapImage, ColmapPoint, binary};
 use lucid_scene::dataset::{FrameRecord, write_transforms};
+use lucid_scene::sampling::Rng;
 use lucid_scene::{Intrinsics, LensDistortion, PinholeCamera, look_at};
 use rayon::prelude::*;
 use serde_json::json;
 
 use crate::point_cloud::{ColouredPoint, write_ply};
-use crate::rig::{splitmix64, unit_float};
 use crate::writer::{GenError, ViewRenderer};
 
 /// Cameras held by hand while walking around the middle of a scene: a ring at varying
@@ -38,36 +38,22 @@ pub struct HandheldRing {
 impl HandheldRing {
     /// `count` camera-to-world poses (OpenGL convention), in walking order.
     pub fn poses(&self, count: usize) -> Vec<Mat4> {
-        let mut rng = Stream(self.seed ^ 0xCA97);
+        let mut rng = Rng::new(self.seed, 0xCA97);
         (0..count)
             .map(|i| {
-                let angle = std::f32::consts::TAU * (i as f32 + 0.4 * (rng.next() - 0.5)) / count as f32;
-                let r = self.radius * (1.0 + 0.08 * (rng.next() - 0.5));
-                let height = self.heights.0 + (self.heights.1 - self.heights.0) * rng.next();
+                let angle = std::f32::consts::TAU * (i as f32 + 0.4 * (rng.uniform() - 0.5)) / count as f32;
+                let r = self.radius * (1.0 + 0.08 * (rng.uniform() - 0.5));
+                let height = self.heights.0 + (self.heights.1 - self.heights.0) * rng.uniform();
                 let eye = Vec3::new(r * angle.cos(), r * angle.sin(), height);
                 let aim = self.target
-                    + 0.25 * self.radius * Vec3::new(rng.next() - 0.5, rng.next() - 0.5, 0.3 * (rng.next() - 0.5));
+                    + 0.25
+                        * self.radius
+                        * Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 0.3 * (rng.uniform() - 0.5));
                 let pose = look_at(eye, aim, Vec3::Z);
-                let roll = (4.0 * (rng.next() - 0.5)).to_radians();
+                let roll = (4.0 * (rng.uniform() - 0.5)).to_radians();
                 pose * Mat4::from_rotation_z(roll)
             })
             .collect()
-    }
-}
-
-/// A deterministic stream of uniform numbers.
-struct Stream(u64);
-
-impl Stream {
-    fn next(&mut self) -> f32 {
-        self.0 = splitmix64(self.0);
-        unit_float(self.0)
-    }
-
-    /// A standard normal number (Box–Muller).
-    fn normal(&mut self) -> f32 {
-        let (u, v) = (self.next().max(1e-7), self.next());
-        (-2.0 * u.ln()).sqrt() * (std::f32::consts::TAU * v).cos()
     }
 }
 
@@ -217,7 +203,7 @@ fn write_sparse_model(root: &Path, spec: &CaptureSpec, k: &Intrinsics, poses: &[
     let keep_every = candidates.len().div_ceil(spec.points.max(1)).max(1);
     candidates = candidates.into_iter().step_by(keep_every).collect();
 
-    let mut noise = Stream(spec.ring.seed ^ 0x5F3);
+    let mut noise = Rng::new(spec.ring.seed, 0x5F3);
     let mut points = Vec::with_capacity(candidates.len());
     let mut tracks = Vec::with_capacity(candidates.len());
     let mut observations: Vec<Vec<(DVec2, i64)>> = vec![Vec::new(); spec.images];
@@ -275,7 +261,7 @@ fn write_nerfstudio(root: &Path, k: &Intrinsics, poses: &[DMat4], points: &[Colm
 }
 
 /// A pose as SfM would leave it: turned about a random axis and moved by normal errors.
-fn perturbed(pose: DMat4, spec: &CaptureSpec, noise: &mut Stream) -> DMat4 {
+fn perturbed(pose: DMat4, spec: &CaptureSpec, noise: &mut Rng) -> DMat4 {
     let axis = DVec3::new(noise.normal().into(), noise.normal().into(), noise.normal().into()).normalize_or(DVec3::Z);
     let angle = f64::from(spec.rotation_noise_degrees.to_radians() * noise.normal());
     let shift = DVec3::new(noise.normal().into(), noise.normal().into(), noise.normal().into())

@@ -59,11 +59,11 @@ fn nerf_and_splats_learn_an_unbounded_capture_beyond_the_nearest_view() {
     assert!(nerf > floor + NERF_MARGIN, "NeRF {nerf:.2} dB against the nearest view's {floor:.2} dB");
 }
 
-// Measured on this 2-core machine (deterministic step budgets): nearest view 14.88 dB,
-// 3DGS 23.00 dB (+8.12), NeRF 18.21 dB (+3.33; 300 steps is a short run for a field).
-const SPLAT_MARGIN: f64 = 7.6;
-const NERF_MARGIN: f64 = 3.0;
-// Measured: 23.97 dB through the lens, 22.49 dB with the camera rewritten as a pinhole.
+// Measured on this 2-core machine (deterministic step budgets): nearest view 14.96 dB,
+// 3DGS 22.62 dB (+7.66), NeRF 18.58 dB (+3.62; 300 steps is a short run for a field).
+const SPLAT_MARGIN: f64 = 7.2;
+const NERF_MARGIN: f64 = 3.2;
+// Measured: 23.48 dB through the lens, 21.75 dB with the camera rewritten as a pinhole.
 const LENS_MARGIN: f64 = 1.2;
 
 #[test]
@@ -304,8 +304,8 @@ fn masked_pixels_are_not_learnt() {
             let (cx, cy) = (10.0 + (i * 13 % 76) as f32, 24.0 + (i * 7 % 30) as f32);
             let inside = |x: usize, y: usize, r: f32| ((x as f32 - cx) / 0.6).hypot(y as f32 - cy) < r;
             let painted =
-                Image::from_fn(96, 72, |x, y| if inside(x, y, 14.0) { [1.0, 0.0, 1.0, 1.0] } else { photo.get(x, y) });
-            let mask = Image::from_fn(96, 72, |x, y| if inside(x, y, 16.0) { [0.0, 0.0, 0.0, 1.0] } else { [1.0; 4] });
+                Image::from_fn(96, 72, |x, y| if inside(x, y, 20.0) { [1.0, 0.0, 1.0, 1.0] } else { photo.get(x, y) });
+            let mask = Image::from_fn(96, 72, |x, y| if inside(x, y, 22.0) { [0.0, 0.0, 0.0, 1.0] } else { [1.0; 4] });
             (painted, Some(mask))
         };
         for set in ["painted", "masked"] {
@@ -327,7 +327,7 @@ fn masked_pixels_are_not_learnt() {
     println!("3DGS: clean {clean:.2} dB, painted {painted:.2} dB, painted and masked {masked:.2} dB");
     let (nclean, npainted, nmasked) = (nerf("clean"), nerf("painted"), nerf("masked"));
     println!("NeRF: clean {nclean:.2} dB, painted {npainted:.2} dB, painted and masked {nmasked:.2} dB");
-    // Measured: 3DGS clean 23.05, painted 21.89, masked 23.13 dB; NeRF 18.14, 17.30, 18.08 dB.
-    assert!(masked > painted + 0.9 && masked > clean - 0.4, "3DGS {clean:.2} / {painted:.2} / {masked:.2} dB");
-    assert!(nmasked > npainted + 0.5 && nmasked > nclean - 0.4, "NeRF {nclean:.2} / {npainted:.2} / {nmasked:.2} dB");
+    // Measured: 3DGS clean 22.62, painted 19.87, masked 22.58 dB; NeRF 18.58, 15.49, 18.77 dB.
+    assert!(masked > painted + 2.2 && masked > clean - 0.4, "3DGS {clean:.2} / {painted:.2} / {masked:.2} dB");
+    assert!(nmasked > npainted + 2.5 && nmasked > nclean - 0.4, "NeRF {nclean:.2} / {npainted:.2} / {nmasked:.2} dB");
 }
