@@ -248,10 +248,10 @@ impl SplatTrainer {
             .flat_map(|p| (0..3).map(move |c| p[c] * p[3] + background[c] * (1.0 - p[3])))
             .collect();
         let target = Tensor::<3>::from_data(TensorData::new(target, [h, w, 3]), &self.device);
-        let (loss, mse) = match data.masks.get(view).and_then(Option::as_ref) {
+        let (loss, mse) = match data.mask_weights(view) {
             // Masked pixels are blacked out in both images: no error, so no gradient, there.
             Some(mask) => {
-                let weights: Vec<f32> = mask.iter().flat_map(|&keep| [if keep { 1.0 } else { 0.0 }; 3]).collect();
+                let weights: Vec<f32> = mask.iter().flat_map(|&m| [m; 3]).collect();
                 let m = Tensor::<3>::from_data(TensorData::new(weights, [h, w, 3]), &self.device);
                 photometric_loss(rgb * m.clone(), target * m, cfg.ssim_weight)
             }

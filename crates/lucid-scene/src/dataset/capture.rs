@@ -191,8 +191,8 @@ impl ImageFolder {
     /// The intrinsics of an image of `size` (on disk) taken by a camera of `k`, and the size
     /// it is resized to on reading, if any.
     fn fit(&self, k: crate::Intrinsics, size: (u32, u32)) -> Result<(crate::Intrinsics, Option<(u32, u32)>), String> {
-        let expected = |n: u32| (n as f64 / self.factor as f64).round() as u32;
-        let at_scale = |n: u32, from: u32| n.abs_diff(expected(from)) <= 1;
+        let expected = |n: u32| downscaled(n, self.factor);
+        let at_scale = |n: u32, from: u32| is_downscaled(n, from, self.factor);
         if self.resize || self.factor == 1 {
             if size != (k.width, k.height) {
                 return Err(format!(
@@ -201,7 +201,7 @@ impl ImageFolder {
                 ));
             }
             if self.resize {
-                let target = (expected(k.width).max(1), expected(k.height).max(1));
+                let target = (expected(k.width), expected(k.height));
                 return Ok((k.resized(target.0, target.1), Some(target)));
             }
             return Ok((k, None));
@@ -220,4 +220,16 @@ impl ImageFolder {
         }
         Ok((k.resized(size.0, size.1), None))
     }
+}
+
+/// A side of `n` pixels read at 1/`factor`, as downscaling scripts leave it: rounded, and at
+/// least one pixel.
+pub(super) fn downscaled(n: u32, factor: u32) -> u32 {
+    ((n as f64 / factor as f64).round() as u32).max(1)
+}
+
+/// Whether a side of `n` pixels on disk is one of `full` pixels downscaled `factor` times:
+/// scripts round either way, so one pixel of slack.
+pub(super) fn is_downscaled(n: u32, full: u32, factor: u32) -> bool {
+    n.abs_diff(downscaled(full, factor)) <= 1
 }

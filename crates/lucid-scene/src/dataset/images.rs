@@ -87,13 +87,10 @@ impl ImageSet {
                 (PinholeCamera { intrinsics: pinhole, ..*camera }, pixels)
             })
             .unzip();
-        let masks = self
-            .masks
-            .iter()
+        let masks = (0..self.masks.len())
             .zip(self.cameras.iter().zip(&cameras))
-            .map(|(mask, (lens, pinhole))| {
-                let mask = mask.as_ref()?;
-                let values: Vec<[f32; 1]> = mask.iter().map(|&m| [if m { 1.0 } else { 0.0 }]).collect();
+            .map(|(i, (lens, pinhole))| {
+                let values: Vec<[f32; 1]> = self.mask_weights(i)?.into_iter().map(|m| [m]).collect();
                 let warped = crate::undistort::resample(&values, &lens.intrinsics, &pinhole.intrinsics);
                 Some(warped.iter().map(|v| v[0] > 0.5).collect())
             })

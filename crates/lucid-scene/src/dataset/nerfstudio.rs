@@ -9,6 +9,7 @@ use std::path::Path;
 use glam::DMat4;
 use serde_json::{Map, Value};
 
+use super::capture::{downscaled, is_downscaled};
 use super::{DatasetError, SceneNormalisation, SparsePoint, SplitFrames};
 
 /// Whether a lone transforms file describes a capture: nerfstudio's keys name one, and it
@@ -63,8 +64,7 @@ pub(super) fn downscale(splits: &mut [SplitFrames], factor: u32) -> Result<(), D
     for split in splits.iter_mut() {
         for (i, frame) in split.frames.iter_mut().enumerate() {
             let k = frame.camera.intrinsics;
-            let expected = |n: u32| ((n as f64 / factor as f64).round() as u32).max(1);
-            let target = (expected(k.width), expected(k.height));
+            let target = (downscaled(k.width, factor), downscaled(k.height, factor));
             let scaled = frame.image_path.parent().zip(frame.image_path.file_name()).and_then(|(dir, name)| {
                 let folder = dir.file_name()?.to_str()?;
                 Some(dir.with_file_name(format!("{folder}_{factor}")).join(name)).filter(|p| p.is_file())
@@ -80,7 +80,7 @@ pub(super) fn downscale(splits: &mut [SplitFrames], factor: u32) -> Result<(), D
                 source,
             })?;
             let (w, h) = (w as u32, h as u32);
-            if w.abs_diff(target.0) > 1 || h.abs_diff(target.1) > 1 {
+            if !is_downscaled(w, k.width, factor) || !is_downscaled(h, k.height, factor) {
                 return Err(DatasetError::Invalid {
                     path: split.source.clone(),
                     key: format!("frames[{i}].file_path"),
