@@ -130,3 +130,31 @@ fn bad_hdr_input_is_refused_clearly() {
     lucid_in(d, &["tonemap", "br/train/r_0.exr", "-o", "x.png", "--key", "nan"]).failure(&["key"]);
     assert!(!d.join("x.exr").exists() && !d.join("x.png").exists(), "nothing half-written");
 }
+
+/// `lucid bench hdr --write-stack` leaves the bracket and a fusion that is the fusion of those
+/// very files (what `scripts/compare-opencv-mertens.py` hands to OpenCV), and refuses a folder
+/// that exists or a benchmark without a bracket.
+#[test]
+fn the_hdr_benchmark_writes_its_bracket_for_other_tools() {
+    let dir = temp_dir();
+    let d = dir.path();
+    lucid_in(d, &["bench", "hdr", "--quick", "--write-stack", "stack"]).success();
+    assert_eq!(
+        lucid_tests::files_under(&d.join("stack")),
+        ["frame_0.png", "frame_1.png", "frame_2.png", "frame_3.png", "frame_4.png", "fused.pfm"]
+    );
+    let frames: Vec<_> = (0..5).map(|k| read_image(d.join(format!("stack/frame_{k}.png"))).unwrap()).collect();
+    let stack = lucid_hdr::stack::ExposureStack::new(&frames, &[1.0 / 16.0, 0.25, 1.0, 4.0, 16.0]).unwrap();
+    let fused = lucid_hdr::fusion::mertens(&stack, lucid_hdr::fusion::FusionSettings::default());
+    let written = read_image(d.join("stack/fused.pfm")).unwrap();
+    let worst = fused
+        .pixels()
+        .iter()
+        .zip(written.pixels())
+        .flat_map(|(a, b)| (0..3).map(move |c| (lucid_image::color::srgb_encode(a[c]) - b[c]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-6, "fused.pfm differs from the fusion of the written frames by {worst}");
+    lucid_in(d, &["bench", "hdr", "--quick", "--write-stack", "stack"]).failure(&["stack", "already exists"]);
+    lucid_in(d, &["bench", "trace", "--quick", "--write-stack", "other"]).failure(&["only the hdr benchmark"]);
+    assert!(!d.join("other").exists());
+}

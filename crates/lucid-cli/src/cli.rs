@@ -688,6 +688,11 @@ pub struct BenchArgs {
     /// nerf, splat: test views scored at each point of the curve (all of them at the end).
     #[arg(long, default_value_t = 50)]
     pub curve_views: usize,
+    /// hdr: also write the bracket (`frame_0.png` ..) and the Mertens fusion of it
+    /// (`fused.pfm`, display values) into this folder, for comparing with other tools
+    /// (`scripts/compare-opencv-mertens.py`). The folder must not exist yet.
+    #[arg(long, value_name = "DIR")]
+    pub write_stack: Option<PathBuf>,
 }
 
 /// `lucid render`.

@@ -16,6 +16,19 @@ pub fn srgb_decode(encoded: f32) -> f32 {
     if x <= 0.040_45 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
 }
 
+/// [`srgb_decode`] by linear interpolation in a table of 4097 samples: within 1e-7 of it
+/// (the curve's second derivative is below 3.4, so the error is under 3.4·h²/8), at the cost
+/// of a multiply-add instead of a `powf`, for whole images of display values.
+pub fn srgb_decode_fast(encoded: f32) -> f32 {
+    const N: usize = 4096;
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| (0..=N + 1).map(|i| srgb_decode((i as f32 / N as f32).min(1.0))).collect());
+    let t = encoded.clamp(0.0, 1.0) * N as f32;
+    let i = (t as usize).min(N - 1);
+    let f = t - i as f32;
+    table[i] + f * (table[i + 1] - table[i])
+}
+
 /// Rec. 709 luminance of a linear RGB colour.
 pub fn luminance(rgb: [f32; 3]) -> f32 {
     REC709_LUMINANCE[0] * rgb[0] + REC709_LUMINANCE[1] * rgb[1] + REC709_LUMINANCE[2] * rgb[2]
@@ -51,6 +64,16 @@ pub fn composite_over(image: &crate::Image, background: [f32; 3]) -> crate::Imag
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_table_decode_is_the_exact_decode() {
+        let worst = (0..=1_000_000)
+            .map(|i| i as f32 / 1e6)
+            .chain([-0.5, 1.5, 0.040_45])
+            .map(|x| (srgb_decode_fast(x) - srgb_decode(x)).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-6, "{worst}");
+    }
 
     #[test]
     fn srgb_round_trip_and_known_points() {

@@ -20,6 +20,14 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         BenchTarget::All => vec![BenchTarget::Trace, BenchTarget::Nerf, BenchTarget::Splat, BenchTarget::Hdr],
         t => vec![t],
     };
+    if let Some(dir) = &args.write_stack {
+        anyhow::ensure!(
+            matches!(args.target, BenchTarget::Hdr | BenchTarget::All),
+            "--write-stack {}: only the hdr benchmark has a bracket to write",
+            dir.display()
+        );
+        anyhow::ensure!(!dir.exists(), "--write-stack {}: already exists (give a new folder)", dir.display());
+    }
     let mut results = Vec::new();
     for target in targets {
         results.push(run_one(&args, target)?);
@@ -116,7 +124,7 @@ fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
-        BenchTarget::Hdr => hdr::run(args.quick)?,
+        BenchTarget::Hdr => hdr::run(args.quick, args.write_stack.as_deref())?,
         BenchTarget::All => unreachable!("expanded by run"),
     })
 }
