@@ -30,6 +30,17 @@ fn bench_all_quick_writes_results_and_a_report() {
         assert_eq!(results[k]["final_val"]["views"], 3, "{name}");
         assert!(results[k]["final_val"]["psnr"].as_f64().unwrap() > floor - 2.0, "{name}");
     }
+    // The built-in set's noise ceiling is measured and reported beside every result: its
+    // 8-spp truth against 64-spp renders (measured 28.3 dB), which no model's score can pass.
+    for (k, name) in [(1, "nerf"), (2, "splat")] {
+        let c = &results[k]["ceiling"];
+        assert_eq!((c["spp"].as_u64(), c["reference_spp"].as_u64()), (Some(8), Some(64)), "{name}: {c}");
+        assert_eq!(c["psnr"].as_array().unwrap().len(), 3, "{name}");
+        let ceiling = c["mean_psnr"].as_f64().unwrap();
+        assert!((26.0..31.0).contains(&ceiling), "{name}: ceiling {ceiling}");
+        assert!(results[k]["final"]["psnr"].as_f64().unwrap() < ceiling + 0.5, "{name} scores above the ceiling");
+        assert!(html.contains(&format!("noise ceiling {ceiling:.2} dB")), "{name}: the report shows the ceiling");
+    }
     // The splat run from random points instead of the exact-depth cloud, beside it.
     let random = results[2]["random_init"]["final"]["psnr"].as_f64().unwrap();
     println!("splat from random points: {random:.2} dB");

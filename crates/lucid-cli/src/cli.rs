@@ -675,10 +675,13 @@ pub struct BenchArgs {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// nerf, splat: a dataset to benchmark on, used as it is (a rendered set or a capture);
-    /// where the folder does not exist, the built-in object set is rendered into it (default
-    /// out/bench/object).
+    /// where the folder does not exist, the first of --scenes is rendered into it.
     #[arg(long)]
     pub dataset: Option<PathBuf>,
+    /// nerf, splat: the built-in sets to benchmark on, each rendered once into out/bench/SCENE
+    /// (trophy, toys: 384 spp, their noise ceiling measured; object: the older 32-spp set).
+    #[arg(long, value_delimiter = ',', default_value = "trophy,toys")]
+    pub scenes: Vec<String>,
     /// Splits and scale of a capture given with --dataset.
     #[command(flatten)]
     pub data: DatasetArgs,

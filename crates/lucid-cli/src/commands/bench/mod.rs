@@ -30,7 +30,14 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     }
     let mut results = Vec::new();
     for target in targets {
-        results.push(run_one(&args, target)?);
+        match target {
+            BenchTarget::Nerf | BenchTarget::Splat => {
+                for dataset in BenchDataset::all(&args)? {
+                    results.push(run_trainer(&args, target, dataset)?);
+                }
+            }
+            _ => results.push(run_one(&args, target)?),
+        }
     }
     let result = match &results[..] {
         [one] => one.clone(),
@@ -58,45 +65,66 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 pub struct BenchDataset {
     /// Its folder.
     pub root: std::path::PathBuf,
-    /// The built-in set, rendered there first if missing or incomplete; else a dataset read as
-    /// it is and never written to.
-    pub built_in: bool,
+    /// The built-in scene rendered there first if missing or incomplete; `None` for a dataset
+    /// read as it is and never written to.
+    pub built_in: Option<String>,
     /// How a split-less dataset or capture is read.
     pub options: lucid_scene::dataset::OpenOptions,
 }
 
 impl BenchDataset {
-    fn of(args: &BenchArgs) -> Self {
-        match &args.dataset {
+    /// One set per `--scenes` entry in `out/bench/SCENE`, or the one `--dataset` names.
+    fn all(args: &BenchArgs) -> anyhow::Result<Vec<Self>> {
+        let allowed = lucid_datasets_gen::builtin::BENCHMARK_SCENES;
+        for scene in &args.scenes {
+            anyhow::ensure!(
+                allowed.contains(&scene.as_str()) || scene == "object",
+                "--scenes: {scene:?} is not a benchmark scene (expected {} or object)",
+                allowed.join(", ")
+            );
+        }
+        anyhow::ensure!(!args.scenes.is_empty(), "--scenes: name at least one scene");
+        Ok(match &args.dataset {
             // A folder that is not there yet (or a generation of Lucid's cut short) gets the
-            // built-in set; any dataset already there is benchmarked as it is.
+            // first built-in scene; any dataset already there is benchmarked as it is.
             Some(root) => {
                 let unfinished = root.join("dataset.toml").is_file() && lucid_scene::Dataset::open(root).is_err();
-                Self { root: root.clone(), built_in: !root.exists() || unfinished, options: args.data.options() }
+                let built_in = (!root.exists() || unfinished).then(|| args.scenes[0].clone());
+                vec![Self { root: root.clone(), built_in, options: args.data.options() }]
             }
-            None => {
-                let root =
-                    std::path::PathBuf::from(if args.quick { "out/bench/object.quick" } else { "out/bench/object" });
-                Self { root, built_in: true, options: Default::default() }
-            }
-        }
+            None => args
+                .scenes
+                .iter()
+                .map(|scene| Self {
+                    root: std::path::PathBuf::from(format!(
+                        "out/bench/{scene}{}",
+                        if args.quick { ".quick" } else { "" }
+                    )),
+                    built_in: Some(scene.clone()),
+                    options: Default::default(),
+                })
+                .collect(),
+        })
     }
 
     /// What the benchmark trains on, for its report.
     pub fn describe(&self) -> String {
-        if self.built_in {
-            format!("the built-in object orbit set ({})", self.root.display())
-        } else {
-            format!("dataset {}", self.root.display())
+        match &self.built_in {
+            Some(scene) => format!("the built-in {scene} orbit set ({})", self.root.display()),
+            None => format!("dataset {}", self.root.display()),
         }
     }
 
-    /// Renders the built-in set if needed, then opens the dataset.
-    pub fn open(&self, quick: bool) -> anyhow::Result<lucid_scene::Dataset> {
+    /// Renders the built-in set if needed, then opens the dataset; with it, the noise ceiling
+    /// of its truth where one was measured (the built-in sets have one).
+    pub fn open(
+        &self,
+        quick: bool,
+    ) -> anyhow::Result<(lucid_scene::Dataset, Option<lucid_datasets_gen::builtin::NoiseCeiling>)> {
         use anyhow::Context;
-        if self.built_in {
+        if let Some(scene) = &self.built_in {
             crate::progress::with_bar("rendering", |progress| {
-                lucid_datasets_gen::builtin::ensure_benchmark_set(&self.root, quick, progress)
+                lucid_datasets_gen::builtin::ensure_benchmark_set(&self.root, scene, quick, progress)
             })
             .with_context(|| format!("generating the benchmark dataset in {}", self.root.display()))?;
         }
@@ -105,26 +133,49 @@ impl BenchDataset {
         if dataset.frames(lucid_scene::Split::Train).is_empty() || dataset.frames(lucid_scene::Split::Test).is_empty() {
             anyhow::bail!("{}: a benchmark needs training and test views", self.root.display());
         }
-        Ok(dataset)
+        let ceiling = lucid_datasets_gen::builtin::NoiseCeiling::read(&self.root);
+        if let Some(c) = &ceiling {
+            println!(
+                "noise ceiling of {}: {:.2} dB (its {} spp truth against {} spp renders, {} test views)",
+                self.root.display(),
+                c.mean_psnr,
+                c.spp,
+                c.reference_spp,
+                c.psnr.len()
+            );
+        }
+        Ok((dataset, ceiling))
     }
 }
 
-fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
+/// `" (noise ceiling 46.12 dB)"` where the set's ceiling is known, for every printed result.
+pub fn ceiling_note(ceiling: Option<&lucid_datasets_gen::builtin::NoiseCeiling>) -> String {
+    ceiling.map_or_else(String::new, |c| format!(" (noise ceiling {:.2} dB)", c.mean_psnr))
+}
+
+fn run_trainer(args: &BenchArgs, target: BenchTarget, dataset: BenchDataset) -> anyhow::Result<serde_json::Value> {
     Ok(match target {
-        BenchTarget::Trace => bench_trace(args.quick)?,
         BenchTarget::Nerf => nerf::run(nerf::NerfBench {
-            dataset: BenchDataset::of(args),
+            dataset,
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
         BenchTarget::Splat => splat::run(splat::SplatBench {
-            dataset: BenchDataset::of(args),
+            dataset,
             quick: args.quick,
             overrides: args.overrides.clone(),
             curve_views: args.curve_views,
         })?,
+        _ => unreachable!("only the trainers take a dataset"),
+    })
+}
+
+fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
+    Ok(match target {
+        BenchTarget::Trace => bench_trace(args.quick)?,
         BenchTarget::Hdr => hdr::run(args.quick, args.write_stack.as_deref())?,
+        BenchTarget::Nerf | BenchTarget::Splat => unreachable!("run by run_trainer"),
         BenchTarget::All => unreachable!("expanded by run"),
     })
 }

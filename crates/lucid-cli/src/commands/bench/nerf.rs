@@ -28,7 +28,7 @@ pub struct NerfBench {
 }
 
 pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
-    let dataset = bench.dataset.open(bench.quick)?;
+    let (dataset, ceiling) = bench.dataset.open(bench.quick)?;
     let train = ImageSet::load(dataset.frames(Split::Train))?;
     let test_frames = dataset.frames(Split::Test);
     let test = ImageSet::load(test_frames)?;
@@ -60,8 +60,12 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let kernel = time_kernels(&model.trainer.config.field, 1 << 16, 7);
     let phases = StepTimings::from_named(&summary.phases);
     println!("lucid bench nerf{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
-    let mut out = report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick);
+    let note = super::ceiling_note(ceiling.as_ref());
+    let mut out =
+        report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick, &note);
     out["dataset"] = json!(bench.dataset.root.display().to_string());
+    out["scene"] = json!(bench.dataset.built_in);
+    out["ceiling"] = json!(ceiling);
     if let Some(val) = &last_val {
         crate::budget_curve::print_validation(val);
         out["final_val"] = json!(val);
@@ -79,6 +83,7 @@ fn report(
     trained: f64,
     kernel: lucid_nerf::profile::KernelTimes,
     quick: bool,
+    ceiling_note: &str,
 ) -> serde_json::Value {
     println!("backend {}", lucid_nerf::backend::backend_name());
     println!("{:>10} {:>7} {:>9} {:>8}", "train (s)", "step", "PSNR", "SSIM");
@@ -92,7 +97,7 @@ fn report(
         );
     }
     let rate = samples as f64 / trained.max(1e-9);
-    println!("final: {} test views, PSNR {:.2} dB, SSIM {:.4}", last.views, last.psnr, last.ssim);
+    println!("final: {} test views, PSNR {:.2} dB{ceiling_note}, SSIM {:.4}", last.views, last.psnr, last.ssim);
     println!("training throughput: {:.0} samples/s over {} steps", rate, trainer.step);
     println!("render time per held-out view: {:.3} s", last.seconds_per_view);
     // Split the field's share between encoding and MLP with the kernel timings' ratios.

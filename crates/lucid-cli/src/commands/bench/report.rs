@@ -57,7 +57,14 @@ pub fn write_report(results: &[Value], quick: bool, dir: &Path) -> anyhow::Resul
     let trainers: Vec<Series> = results
         .iter()
         .filter(|v| !curve(v).is_empty())
-        .map(|v| Series { name: v["benchmark"].as_str().unwrap_or("?").to_string(), points: curve(v) })
+        .map(|v| {
+            let name = v["benchmark"].as_str().unwrap_or("?");
+            let name = match v["scene"].as_str() {
+                Some(scene) => format!("{name} ({scene})"),
+                None => name.to_string(),
+            };
+            Series { name, points: curve(v) }
+        })
         .collect();
     if !trainers.is_empty() {
         let svg =
@@ -69,6 +76,18 @@ pub fn write_report(results: &[Value], quick: bool, dir: &Path) -> anyhow::Resul
         let mut rows = Vec::new();
         numbers("", result, &mut rows);
         r.heading(name);
+        if let Some(dataset) = result["dataset"].as_str() {
+            r.note(&format!("dataset {dataset}"));
+        }
+        if let Some(c) = result.get("ceiling").filter(|c| !c.is_null()) {
+            r.note(&format!(
+                "noise ceiling {:.2} dB: the set's {} spp truth against {} spp renders of {} test views; no model can be measured above it",
+                c["mean_psnr"].as_f64().unwrap_or(f64::NAN),
+                c["spp"],
+                c["reference_spp"],
+                c["psnr"].as_array().map_or(0, Vec::len)
+            ));
+        }
         if let Some(last) = result.get("final") {
             r.note(&format!(
                 "final held-out PSNR {:.2} dB, SSIM {:.4}",

@@ -72,7 +72,8 @@ fn train_run<'a>(
 }
 
 pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
-    let dataset = bench.dataset.open(bench.quick)?;
+    let (dataset, ceiling) = bench.dataset.open(bench.quick)?;
+    let note = super::ceiling_note(ceiling.as_ref());
     // The rasterizer projects through pinholes: distorted captures train on undistorted crops
     // (and are scored on their own images through the renderer's warp).
     let loaded = ImageSet::load(dataset.frames(Split::Train))?;
@@ -113,12 +114,12 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
             p["gaussians"]
         );
     }
-    println!("final: {} test views, PSNR {:.2} dB, SSIM {:.4}", last.views, last.psnr, last.ssim);
+    println!("final: {} test views, PSNR {:.2} dB{note}, SSIM {:.4}", last.views, last.psnr, last.ssim);
     if let Some(val) = &last_val {
         crate::budget_curve::print_validation(val);
     }
     println!(
-        "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB, SSIM {:.4}, {} Gaussians",
+        "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB{note}, SSIM {:.4}, {} Gaussians",
         random.model.trainer.config.init.random_points,
         random_last.psnr,
         random_last.ssim,
@@ -153,7 +154,8 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
         raster["images_per_second_800"].as_f64().unwrap_or(0.0)
     );
     Ok(json!({
-        "benchmark": "splat", "dataset": bench.dataset.root.display().to_string(), "quick": bench.quick, "threads": rayon::current_num_threads(),
+        "benchmark": "splat", "dataset": bench.dataset.root.display().to_string(), "scene": bench.dataset.built_in,
+        "ceiling": ceiling, "quick": bench.quick, "threads": rayon::current_num_threads(),
         "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
         "time_shares": names.iter().zip(&phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
         "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
