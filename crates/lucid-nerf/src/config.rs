@@ -87,6 +87,10 @@ pub struct TrainConfig {
     /// 2 cores (3-minute runs on the object set: 2^14 28.56 dB, 2^15 28.72, 2^16 28.13; at
     /// 10 minutes 2^15 and 2^16 end level, 2^15 much earlier): more, cheaper steps.
     pub batch_samples: usize,
+    /// The factor the batch grows by over the run's budget (steps or seconds), geometrically
+    /// from `batch_samples`: early steps many and cheap while the model is coarse, late ones
+    /// averaging more rays as the learning rate decays. 1: a constant batch.
+    pub batch_growth: f64,
     /// Rays of the first batch, before the adaptation has a measurement.
     pub initial_rays: usize,
     /// Adam learning rate of the grid and the MLPs.
@@ -127,6 +131,7 @@ impl Default for TrainConfig {
             steps: 3000,
             time_limit: 0.0,
             batch_samples: 1 << 15,
+            batch_growth: 1.0,
             initial_rays: 4096,
             learning_rate: 1e-2,
             final_learning_rate: 0.1,
@@ -166,10 +171,10 @@ impl NerfConfig {
         let per_sample = 2 * layout.saved_per_sample() + 32;
         e.add(
             format!(
-                "samples per step (train.batch_samples = {}, field.hidden = {})",
-                t.batch_samples, self.field.hidden
+                "samples per step (train.batch_samples = {}, batch_growth = {}, field.hidden = {})",
+                t.batch_samples, t.batch_growth, self.field.hidden
             ),
-            floats((t.batch_samples * per_sample) as f64),
+            floats(t.batch_samples as f64 * t.batch_growth.max(1.0) * per_sample as f64),
         );
         // The ray count adapts up to four times the initial one; each ray holds ~32 values.
         e.add(
@@ -215,6 +220,15 @@ impl NerfConfig {
         non_negative("train.time_limit", t.time_limit)?;
         if !(1024..=1 << 22).contains(&t.batch_samples) {
             return Err(format!("train.batch_samples must be in 1024..=4194304, got {}", t.batch_samples));
+        }
+        if !(t.batch_growth.is_finite() && (1.0 / 64.0..=64.0).contains(&t.batch_growth)) {
+            return Err(format!("train.batch_growth must be in [1/64, 64], got {}", t.batch_growth));
+        }
+        let last = t.batch_samples as f64 * t.batch_growth;
+        if !(1024.0..=(1u64 << 22) as f64).contains(&last) {
+            return Err(format!(
+                "train.batch_samples × train.batch_growth (the last batch) must be in 1024..=4194304, got {last}"
+            ));
         }
         if !(1..=1 << 20).contains(&t.initial_rays) {
             return Err(format!("train.initial_rays must be in 1..=1048576, got {}", t.initial_rays));

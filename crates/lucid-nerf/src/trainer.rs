@@ -219,6 +219,13 @@ impl NerfTrainer {
         t.learning_rate * t.final_learning_rate.powf(self.progress.clamp(0.0, 1.0))
     }
 
+    /// Samples per batch at the current schedule position: geometric from `batch_samples` to
+    /// `batch_growth` times it over the run's budget.
+    pub fn batch_samples(&self) -> usize {
+        let t = &self.config.train;
+        (t.batch_samples as f64 * t.batch_growth.powf(self.progress.clamp(0.0, 1.0))).round() as usize
+    }
+
     /// One optimisation step on random pixels of `data`.
     pub fn step(&mut self, data: &ImageSet) -> StepStats {
         let cfg = self.config.train;
@@ -236,6 +243,7 @@ impl NerfTrainer {
         }
         lap(&mut timings.occupancy);
         let mut rng = Rng::new(cfg.seed, mix(self.step as u64 + 1));
+        let batch_samples = self.batch_samples();
         let n_rays = (self.rays_per_batch as usize).clamp(64, 1 << 20);
         // Pixels uniformly over all training pixels (or, for a fraction of them, by the error
         // map), each at a random point of its area.
@@ -285,17 +293,12 @@ impl NerfTrainer {
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
         let marcher = self.marcher();
-        let (batch, kept) = march_rays(
-            &rays,
-            |i| Rng::new(seed, i as u64).uniform(),
-            &marcher,
-            &self.grid,
-            Some(self.config.train.batch_samples),
-        );
+        let (batch, kept) =
+            march_rays(&rays, |i| Rng::new(seed, i as u64).uniform(), &marcher, &self.grid, Some(batch_samples));
         let s = batch.samples.samples();
         // Adapt the ray count so the next batch fills the sample budget.
         let per_ray = s.max(1) as f32 / kept.max(1) as f32;
-        let wanted = self.config.train.batch_samples as f32 / per_ray;
+        let wanted = batch_samples as f32 / per_ray;
         self.rays_per_batch = 0.8 * self.rays_per_batch + 0.2 * wanted.min(4.0 * n_rays as f32);
 
         let backgrounds: Vec<[f32; 3]> = (0..kept)
@@ -429,5 +432,29 @@ mod tests {
         named.push(("elsewhere", 9.0));
         let back = StepTimings::from_named(&named);
         assert_eq!(back.named(), t.named());
+    }
+
+    /// The batch and the learning rate follow the run's progress: the batch geometrically
+    /// from `batch_samples` to `batch_growth` times it, the rate from `learning_rate` down to
+    /// its final fraction.
+    #[test]
+    fn batch_and_learning_rate_follow_the_budget() {
+        let mut config = NerfConfig::default();
+        config.train.batch_samples = 1 << 14;
+        config.train.batch_growth = 4.0;
+        config.train.learning_rate = 0.01;
+        config.train.final_learning_rate = 0.1;
+        config.occupancy.resolution = 8;
+        let device = crate::backend::training_device();
+        let mut trainer = NerfTrainer::new(config, (Vec3::splat(-1.0), Vec3::ONE), 1e-3, device);
+        for (progress, batch, lr) in [(0.0, 1 << 14, 0.01), (0.5, 1 << 15, 0.01 * 0.1f64.sqrt()), (1.0, 1 << 16, 0.001)]
+        {
+            trainer.progress = progress;
+            assert_eq!(trainer.batch_samples(), batch, "progress {progress}");
+            assert!((trainer.learning_rate() - lr).abs() < 1e-12, "progress {progress}");
+        }
+        // Beyond the budget (a resumed run) the schedule holds its end.
+        trainer.progress = 1.5;
+        assert_eq!(trainer.batch_samples(), 1 << 16);
     }
 }

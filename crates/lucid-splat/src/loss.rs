@@ -1,5 +1,6 @@
 //! The 3DGS photometric loss, `(1 − λ)·L1 + λ·(1 − SSIM)`, in burn tensor operations (so its
-//! gradient is burn's). SSIM as in the reference trainer: 11×11 Gaussian window (σ = 1.5),
+//! gradient is burn's): the definition that the trainer's hand-written kernel
+//! ([`crate::photometric`]) is tested against. SSIM as in the reference trainer: 11×11 Gaussian window (σ = 1.5),
 //! zero padding to the same size, averaged over pixels and channels; the window is applied as
 //! two separable depthwise convolutions.
 

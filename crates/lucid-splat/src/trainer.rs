@@ -11,7 +11,7 @@
 
 use std::time::Instant;
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor};
 use glam::Vec3;
 use lucid_scene::Dataset;
 use lucid_scene::dataset::images::{ImageSet, ViewInfo, scene_box};
@@ -21,7 +21,7 @@ use crate::camera::SplatCamera;
 use crate::cloud::SplatCloud;
 use crate::config::{Background, SplatConfig};
 use crate::densify::{DensifyReport, DensifyStats, SceneExtent, densify_and_prune, reset_opacity};
-use crate::loss::photometric_loss;
+use crate::loss_op::{LossArgs, image_loss};
 use crate::model::{SplatModel, SplatOptimizer};
 use crate::ops::{SplatRenderArgs, render_splats};
 use crate::project::RenderSettings;
@@ -240,27 +240,19 @@ impl SplatTrainer {
         let n = self.model.len();
         let means_2d = Tensor::<2>::zeros([n, 2], &self.device).require_grad();
         let image = render_splats(&self.model.tensors(), means_2d.clone(), args.clone());
-        let rgb = image.slice([0..h, 0..w, 0..3]);
         lap(&mut timings[0]);
 
         let target: Vec<f32> = data.pixels[view]
             .iter()
             .flat_map(|p| (0..3).map(move |c| p[c] * p[3] + background[c] * (1.0 - p[3])))
             .collect();
-        let target = Tensor::<3>::from_data(TensorData::new(target, [h, w, 3]), &self.device);
-        let (loss, mse) = match data.mask_weights(view) {
-            // Masked pixels are blacked out in both images: no error, so no gradient, there.
-            Some(mask) => {
-                let weights: Vec<f32> = mask.iter().flat_map(|&m| [m; 3]).collect();
-                let m = Tensor::<3>::from_data(TensorData::new(weights, [h, w, 3]), &self.device);
-                photometric_loss(rgb * m.clone(), target * m, cfg.ssim_weight)
-            }
-            None => photometric_loss(rgb, target, cfg.ssim_weight),
-        };
-        let scalar = |t: Tensor<1>| t.into_data().try_to_vec::<f32>().expect("f32")[0];
-        let mse = scalar(mse);
+        // Masked pixels are blacked out in both images: no error, so no gradient, there.
+        let mask = data.mask_weights(view);
+        let loss_args = LossArgs::new(target, mask, w, h, cfg.ssim_weight);
+        let loss = image_loss(image, loss_args.clone());
         let mut grads = loss.backward();
-        let loss = scalar(loss);
+        let mse = loss_args.mse();
+        let loss = loss.into_data().try_to_vec::<f32>().expect("f32")[0];
         let g2d = means_2d.grad(&grads).map(lucid_burn::to_host_tensor).unwrap_or_else(|| vec![0.0; 2 * n]);
         let state = args.take_state();
         self.stats.record(&g2d, state.projected.iter().map(|p| p.radius));
