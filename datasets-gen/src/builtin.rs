@@ -131,10 +131,7 @@ pub fn ensure_benchmark_set(
     let reference = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     let ceiling = measure_ceiling(root, scene, spp, &spec, &reference)?;
     let text = serde_json::to_string_pretty(&ceiling).expect("serialisable");
-    lucid_image::io::write_atomically(&root.join(NoiseCeiling::FILE), |out| {
-        use std::io::Write;
-        out.write_all(text.as_bytes()).map_err(|e| lucid_image::ImageError::io(&root.join(NoiseCeiling::FILE), e))
-    })?;
+    lucid_image::output::write_text(&root.join(NoiseCeiling::FILE), &text)?;
     Ok(ceiling)
 }
 
@@ -145,20 +142,23 @@ fn measure_ceiling(
     spec: &DatasetSpec,
     reference: &PathTracedScene,
 ) -> Result<NoiseCeiling, GenError> {
-    use lucid_image::color::{composite_pixel, srgb_encode};
+    use lucid_image::color::{composite_over, srgb_encode};
     let dataset = Dataset::open(root)?;
-    // Scored as evaluations score: sRGB-encoded, composited over white.
-    let scored = |image: &lucid_image::Image| {
-        image.map(|p| composite_pixel([srgb_encode(p[0]), srgb_encode(p[1]), srgb_encode(p[2]), p[3]], [1.0; 3]))
-    };
+    let frames = dataset.frames(Split::Test);
+    let frames = &frames[..frames.len().min(CEILING_VIEWS)];
+    // Scored as evaluations score: the truth read and composited by their own functions, the
+    // reference encoded and composited over the same white.
+    let truth = lucid_scene::dataset::images::ImageSet::load(frames)?;
     let mut psnr = Vec::new();
-    for (k, frame) in dataset.frames(Split::Test).iter().take(CEILING_VIEWS).enumerate() {
+    for (k, frame) in frames.iter().enumerate() {
         // Streams no view of the set uses (those are numbered split · 10⁶ + index).
         let view = reference.render(&frame.camera, None, (1 << 40) + k as u64);
         let long = spec.tone_curve.map_image(&view.colour, spec.exposure);
-        let truth = lucid_image::read_image(&frame.image_path)?;
+        let long =
+            composite_over(&long.map(|p| [srgb_encode(p[0]), srgb_encode(p[1]), srgb_encode(p[2]), p[3]]), [1.0; 3]);
+        let truth = lucid_scene::evaluation::ground_truth(&truth, k, [1.0; 3]);
         psnr.push(
-            lucid_image::metrics::psnr(&scored(&truth), &scored(&long), None)
+            lucid_image::metrics::psnr(&truth, &long, None)
                 .map_err(|e| GenError::Spec(format!("{}: {e}", frame.image_path.display())))?,
         );
     }

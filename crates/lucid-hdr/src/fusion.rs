@@ -9,7 +9,7 @@ use lucid_image::color::srgb_decode_fast;
 use rayon::prelude::*;
 
 use crate::blur::Plane;
-use crate::pyramid::{collapse, expand_rows, fill_gaussian_pyramid, levels_for, pyramid_sizes};
+use crate::pyramid::{collapse, expand_rows, fill_gaussian_pyramid, levels_for, mirror, pyramid_sizes};
 use crate::stack::ExposureStack;
 
 /// Exponents of the three quality measures (the paper's `ω_C`, `ω_S`, `ω_E`; 1 each by
@@ -133,16 +133,11 @@ fn quality(stack: &ExposureStack, k: usize, settings: &FusionSettings, grey: &mu
     let mut out = vec![0.0f32; w * h];
     out.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
         let line = |yy: usize| &grey[yy * w..(yy + 1) * w];
-        // Mirrored edges without repeating the edge pixel (OpenCV's default border).
-        let mirror = |i: usize, n: usize, step_back: bool| match (step_back, i) {
-            (true, 0) => 1.min(n - 1),
-            (true, i) => i - 1,
-            (false, i) if i + 1 == n => i.saturating_sub(1),
-            (false, i) => i + 1,
-        };
-        let (up, here, down) = (line(mirror(y, h, true)), line(y), line(mirror(y, h, false)));
+        // Mirrored edges without repeating the edge pixel (OpenCV's default border, as the
+        // pyramids have it).
+        let (up, here, down) = (line(mirror(y as isize - 1, h)), line(y), line(mirror(y as isize + 1, h)));
         for (x, out) in row.iter_mut().enumerate() {
-            let (left, right) = (here[mirror(x, w, true)], here[mirror(x, w, false)]);
+            let (left, right) = (here[mirror(x as isize - 1, w)], here[mirror(x as isize + 1, w)]);
             // Summed in OpenCV's kernel order, which is exact on flat ground: there the
             // contrast must be 0, not a rounding error that outweighs the 1e-12 floor.
             let contrast = (up[x] + left - 4.0 * here[x] + right + down[x]).abs();
@@ -177,19 +172,8 @@ mod tests {
             .map(|k| {
                 let grey = Plane::from_fn(w, h, |i| luma(value(k, i, 0), value(k, i, 1), value(k, i, 2)));
                 Plane::from_fn(w, h, |i| {
-                    let (x, y) = (i % w, i / w);
-                    let reflect = |i: isize, n: usize| {
-                        let n = n as isize;
-                        (if i < 0 {
-                            -i
-                        } else if i >= n {
-                            2 * n - 2 - i
-                        } else {
-                            i
-                        })
-                        .clamp(0, n - 1) as usize
-                    };
-                    let at = |dx: isize, dy: isize| grey.at(reflect(x as isize + dx, w), reflect(y as isize + dy, h));
+                    let (x, y) = ((i % w) as isize, (i / w) as isize);
+                    let at = |dx: isize, dy: isize| grey.at(mirror(x + dx, w), mirror(y + dy, h));
                     let contrast = (at(0, -1) + at(-1, 0) - 4.0 * at(0, 0) + at(1, 0) + at(0, 1)).abs();
                     let rgb = [value(k, i, 0), value(k, i, 1), value(k, i, 2)];
                     let mean = (rgb[0] + rgb[1] + rgb[2]) / 3.0;

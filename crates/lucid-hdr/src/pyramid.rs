@@ -15,7 +15,7 @@ use crate::blur::Plane;
 const KERNEL: [f32; 5] = [1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0];
 
 /// `BORDER_REFLECT_101`: `-1 → 1`, `n → n − 2`.
-fn mirror(i: isize, n: usize) -> usize {
+pub(crate) fn mirror(i: isize, n: usize) -> usize {
     let n = n as isize;
     let i = if i < 0 { -i } else { i };
     let i = if i >= n { 2 * (n - 1) - i } else { i };

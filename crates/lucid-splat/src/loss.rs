@@ -1,23 +1,25 @@
 //! The 3DGS photometric loss, `(1 − λ)·L1 + λ·(1 − SSIM)`, in burn tensor operations (so its
 //! gradient is burn's): the definition that the trainer's hand-written kernel
-//! ([`crate::photometric`]) is tested against. SSIM as in the reference trainer: 11×11 Gaussian window (σ = 1.5),
-//! zero padding to the same size, averaged over pixels and channels; the window is applied as
-//! two separable depthwise convolutions.
+//! ([`crate::photometric`]) is tested against, and the SSIM constants both use. SSIM as in
+//! the reference trainer: 11×11 Gaussian window (σ = 1.5), zero padding to the same size,
+//! averaged over pixels and channels; the window is applied as two separable depthwise
+//! convolutions.
 
 use burn::tensor::module::conv2d;
 use burn::tensor::ops::ConvOptions;
 use burn::tensor::{Device, Tensor, TensorData};
 
-const WINDOW: usize = 11;
+pub(crate) const WINDOW: usize = 11;
 const SIGMA: f32 = 1.5;
-const C1: f32 = 0.01 * 0.01;
-const C2: f32 = 0.03 * 0.03;
+pub(crate) const C1: f32 = 0.01 * 0.01;
+pub(crate) const C2: f32 = 0.03 * 0.03;
 
-fn gaussian_window() -> Vec<f32> {
+/// The normalised 1-D window.
+pub(crate) fn gaussian_window() -> [f32; WINDOW] {
     let h = (WINDOW / 2) as f32;
-    let w: Vec<f32> = (0..WINDOW).map(|i| (-((i as f32 - h).powi(2)) / (2.0 * SIGMA * SIGMA)).exp()).collect();
+    let w: [f32; WINDOW] = std::array::from_fn(|i| (-((i as f32 - h).powi(2)) / (2.0 * SIGMA * SIGMA)).exp());
     let sum: f32 = w.iter().sum();
-    w.into_iter().map(|v| v / sum).collect()
+    w.map(|v| v / sum)
 }
 
 /// Separable Gaussian blur of `x` (`1×C×H×W`), same size, zero padded.

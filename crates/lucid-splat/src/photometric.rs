@@ -11,17 +11,7 @@
 
 use rayon::prelude::*;
 
-const WINDOW: usize = 11;
-const SIGMA: f32 = 1.5;
-const C1: f32 = 0.01 * 0.01;
-const C2: f32 = 0.03 * 0.03;
-
-fn gaussian_window() -> [f32; WINDOW] {
-    let h = (WINDOW / 2) as f32;
-    let w: [f32; WINDOW] = std::array::from_fn(|i| (-((i as f32 - h).powi(2)) / (2.0 * SIGMA * SIGMA)).exp());
-    let sum: f32 = w.iter().sum();
-    w.map(|v| v / sum)
-}
+use crate::loss::{C1, C2, WINDOW, gaussian_window};
 
 /// A rendered image and what it is compared with.
 #[derive(Clone, Copy, Debug)]
@@ -140,14 +130,15 @@ pub fn photometric_loss(inputs: &LossInputs) -> LossOutput {
             .into_par_iter()
             .map(|task| {
                 let ch = &channels[task / 5];
-                let plane: Vec<f32> = match task % 5 {
-                    0 => ch.a.clone(),
-                    1 => ch.b.clone(),
-                    2 => ch.a.iter().map(|x| x * x).collect(),
-                    3 => ch.b.iter().map(|y| y * y).collect(),
-                    _ => ch.a.iter().zip(&ch.b).map(|(x, y)| x * y).collect(),
-                };
-                blur(&plane, w, h, &window)
+                let product =
+                    |f: fn(f32, f32) -> f32| -> Vec<f32> { ch.a.iter().zip(&ch.b).map(|(x, y)| f(*x, *y)).collect() };
+                match task % 5 {
+                    0 => blur(&ch.a, w, h, &window),
+                    1 => blur(&ch.b, w, h, &window),
+                    2 => blur(&product(|x, _| x * x), w, h, &window),
+                    3 => blur(&product(|_, y| y * y), w, h, &window),
+                    _ => blur(&product(|x, y| x * y), w, h, &window),
+                }
             })
             .collect();
         // Per pixel: S and its partials with respect to μ_a, G∗a² and G∗ab.

@@ -31,12 +31,14 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let mut results = Vec::new();
     for target in targets {
         match target {
+            BenchTarget::Trace => results.push(bench_trace(args.quick)?),
+            BenchTarget::Hdr => results.push(hdr::run(args.quick, args.write_stack.as_deref())?),
             BenchTarget::Nerf | BenchTarget::Splat => {
                 for dataset in BenchDataset::all(&args)? {
                     results.push(run_trainer(&args, target, dataset)?);
                 }
             }
-            _ => results.push(run_one(&args, target)?),
+            BenchTarget::All => unreachable!("expanded above"),
         }
     }
     let result = match &results[..] {
@@ -168,15 +170,6 @@ fn run_trainer(args: &BenchArgs, target: BenchTarget, dataset: BenchDataset) -> 
             curve_views: args.curve_views,
         })?,
         _ => unreachable!("only the trainers take a dataset"),
-    })
-}
-
-fn run_one(args: &BenchArgs, target: BenchTarget) -> anyhow::Result<serde_json::Value> {
-    Ok(match target {
-        BenchTarget::Trace => bench_trace(args.quick)?,
-        BenchTarget::Hdr => hdr::run(args.quick, args.write_stack.as_deref())?,
-        BenchTarget::Nerf | BenchTarget::Splat => unreachable!("run by run_trainer"),
-        BenchTarget::All => unreachable!("expanded by run"),
     })
 }
 
