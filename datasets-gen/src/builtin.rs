@@ -60,9 +60,6 @@ pub fn object_orbit_spec(size: u32, counts: [usize; 3], seed: u64) -> DatasetSpe
     }
 }
 
-/// Samples per pixel of the benchmark sets' truth.
-pub const BENCHMARK_SPP: u32 = 384;
-
 /// The noise ceiling is measured against renders this many times longer.
 pub const CEILING_SPP_FACTOR: u32 = 8;
 
@@ -99,24 +96,36 @@ impl NoiseCeiling {
 
 /// Renders the benchmark set of `scene` (one of [`BENCHMARK_SCENES`], or `object`) into `root`
 /// unless it is complete there (generation resumes), then measures its noise ceiling: 200×200,
-/// 100 training, 25 validation and 100 test views at [`BENCHMARK_SPP`] (`object`: 100, 50 and
-/// 200 at 32 spp, as the first benchmarks had it), or with `quick` 48×48, 12, 3 and 3 views at
-/// 8 spp. Settings are chosen on the validation views; the test views only
-/// report. `progress` gets the frames done and to do.
+/// 100 training, 25 validation and 100 test views at the samples per pixel its scene file sets
+/// (each scene's noise differs; they are chosen so that the ceiling is ≥ 45 dB), `object` with
+/// 100, 50 and 200 views at 32 spp as the first benchmarks had it, or with `quick` 48×48, 12, 3
+/// and 3 views at 8 spp. Settings are chosen on the validation views; the test views only
+/// report. A set whose measured ceiling records another spp was rendered for other settings and
+/// is refused rather than mixed or overwritten. `progress` gets the frames done and to do.
 pub fn ensure_benchmark_set(
     root: &Path,
     scene: &str,
     quick: bool,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<NoiseCeiling, GenError> {
+    let mut loaded = load_named_scene(scene)?;
     let (size, counts, spp) = match (quick, scene) {
         (true, _) => (48, [12, 3, 3], 8),
         // The first benchmark set, kept as it was so that its numbers can be reproduced.
         (false, "object") => (200, [100, 50, 200], 32),
-        (false, _) => (200, [100, 25, 100], BENCHMARK_SPP),
+        (false, _) => (200, [100, 25, 100], loaded.settings.spp),
     };
-    let mut loaded = load_named_scene(scene)?;
     loaded.settings.spp = spp;
+    let stored = NoiseCeiling::read(root);
+    if let Some(other) = stored.as_ref().filter(|c| c.scene != scene || c.spp != spp) {
+        return Err(GenError::Spec(format!(
+            "{} holds the {} set at {} spp, but the {scene} benchmark renders {spp} spp; \
+             remove that folder (or pass another) to render it anew",
+            root.display(),
+            other.scene,
+            other.spp
+        )));
+    }
     let spec = object_orbit_spec(size, counts, 0);
     let complete =
         Dataset::open(root).is_ok_and(|d| Split::ALL.iter().zip(counts).all(|(&s, n)| d.frames(s).len() == n));
@@ -124,7 +133,7 @@ pub fn ensure_benchmark_set(
         let renderer = PathTracedScene { scene: loaded.scene.clone(), settings: loaded.settings };
         generate_dataset(root, &spec, &renderer, Shard::ALL, progress)?;
     }
-    if let Some(ceiling) = NoiseCeiling::read(root).filter(|c| c.scene == scene && c.spp == spp) {
+    if let Some(ceiling) = stored {
         return Ok(ceiling);
     }
     loaded.settings.spp = spp * CEILING_SPP_FACTOR;
@@ -178,5 +187,23 @@ mod tests {
         }
         let err = load_named_scene("nowhere").err().unwrap().to_string();
         assert!(err.contains("nowhere") && err.contains("cornell, spheres"), "{err}");
+    }
+
+    /// The benchmark renders each scene at its file's spp, and a folder whose measured ceiling
+    /// records another is refused untouched (not mixed with new frames, not overwritten).
+    #[test]
+    fn benchmark_spp_comes_from_the_scene_and_a_stale_set_is_refused() {
+        assert_eq!(load_named_scene("trophy").unwrap().settings.spp, 384);
+        assert_eq!(load_named_scene("toys").unwrap().settings.spp, 512);
+        let dir = tempfile::tempdir().unwrap();
+        let stale =
+            NoiseCeiling { scene: "toys".into(), spp: 384, reference_spp: 3072, psnr: vec![44.0], mean_psnr: 44.0 };
+        let text = serde_json::to_string(&stale).unwrap();
+        std::fs::write(dir.path().join(NoiseCeiling::FILE), &text).unwrap();
+        let err = ensure_benchmark_set(dir.path(), "toys", true, &|_, _| {}).unwrap_err().to_string();
+        assert!(err.contains("384 spp") && err.contains("renders 8 spp"), "{err}");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, [NoiseCeiling::FILE]);
+        assert_eq!(std::fs::read_to_string(dir.path().join(NoiseCeiling::FILE)).unwrap(), text);
     }
 }

@@ -516,7 +516,8 @@ pub enum ResponseArg {
 /// `lucid gen`.
 #[derive(Debug, Args)]
 pub struct GenArgs {
-    /// A built-in scene (cornell, spheres, materials, media, object, studio) or a scene .toml file.
+    /// A built-in scene (cornell, spheres, materials, media, object, studio, garden, trophy, toys) or a
+    /// scene .toml file.
     pub scene: String,
     /// The camera rig: orbit, brackets, lightfield, olat, or a rig file (configs/rigs/*.toml)
     /// whose `type` is one of those and whose keys set the options below (options given on
@@ -679,7 +680,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub dataset: Option<PathBuf>,
     /// nerf, splat: the built-in sets to benchmark on, each rendered once into out/bench/SCENE
-    /// (trophy, toys: 384 spp, their noise ceiling measured; object: the older 32-spp set).
+    /// (trophy at 384 spp, toys at 512, their noise ceiling measured; object: the older 32-spp set).
     #[arg(long, value_delimiter = ',', default_value = "trophy,toys")]
     pub scenes: Vec<String>,
     /// Splits and scale of a capture given with --dataset.

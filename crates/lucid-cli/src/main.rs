@@ -15,7 +15,8 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 
 // glibc malloc returns large freed buffers to the OS on every free, which halved burn's CPU
-// throughput in our measurements; mimalloc keeps them.
+// throughput in our measurements; mimalloc keeps them (built without transparent huge pages:
+// see the workspace Cargo.toml).
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

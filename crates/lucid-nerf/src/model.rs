@@ -45,6 +45,12 @@ impl NerfModel {
         Self { table: Param::from_tensor(table), mlp: Param::from_tensor(mlp) }
     }
 
+    /// A one-entry stand-in, held while the real parameters pass through the optimiser.
+    pub(crate) fn stand_in(device: &Device) -> Self {
+        let one = |shape: [usize; 2]| Tensor::<2>::from_data(TensorData::new(vec![0.0f32], shape), device);
+        Self { table: Param::from_tensor(one([1, 1])), mlp: Param::from_tensor(one([1, 1]).reshape([1])) }
+    }
+
     /// `σ, r, g, b` at normalised positions along unit directions.
     pub fn field(&self, positions: Tensor<2>, directions: Tensor<2>, config: FieldConfig) -> Tensor<2> {
         ops::field(positions, directions, self.table.val(), self.mlp.val(), config)

@@ -350,7 +350,10 @@ impl NerfTrainer {
         let grads = GradientsParams::from_grads(grads, &self.model);
         lap(&mut timings.backward);
         let lr = self.learning_rate();
-        self.model = self.optimizer.step(lr, self.model.clone(), grads);
+        // Moved, not cloned, into the optimiser: a second owner of the table made its in-place
+        // update copy all of it first.
+        let model = std::mem::replace(&mut self.model, NerfModel::stand_in(&self.device));
+        self.model = self.optimizer.step(lr, model, grads);
         // burn's ops run eagerly on the CPU backends; a read makes that explicit on others.
         let _ = self.model.table.val().slice([0..1, 0..1]).into_data();
         lap(&mut timings.optimizer);

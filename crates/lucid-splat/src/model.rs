@@ -128,14 +128,16 @@ impl SplatOptimizer {
         let params = [model.means, model.log_scales, model.rotations, model.opacities, model.sh_dc, model.sh_rest];
         let mut out = Vec::with_capacity(6);
         for (k, param) in params.into_iter().enumerate() {
-            let value = param.val();
+            // Taken out of the parameter rather than cloned from it: a second owner of the
+            // storage made the in-place update copy the whole tensor first.
+            let (id, value, _) = param.consume();
             let Some(grad) = value.grad_remove(grads) else {
-                out.push(param);
+                out.push(Param::initialized(id, value));
                 continue;
             };
             let (next, state) = self.adam.step(lrs[k], value.inner(), grad, self.states[k].take());
             self.states[k] = state;
-            out.push(Param::initialized(param.id, Tensor::from_inner(next).require_grad()));
+            out.push(Param::initialized(id, Tensor::from_inner(next).require_grad()));
         }
         let [means, log_scales, rotations, opacities, sh_dc, sh_rest]: [Param<Tensor<2>>; 6] =
             out.try_into().expect("six parameter kinds");
