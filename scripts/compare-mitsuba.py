@@ -8,8 +8,8 @@ minutes, so a figure means something only beside the reference measured in the s
 benchmark's settings (256x256, 64 spp, path tracing with max depth 8; reference mean 0.1470).
 
     pip install mitsuba numpy
-    # the LLVM variant needs libLLVM (Debian: apt-get install libllvm19) and, if Dr.Jit does
-    # not find it: export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so
+    # the LLVM variant needs libLLVM 16 or later (Debian: apt-get install libllvm19); the
+    # script points Dr.Jit at the newest one it finds unless DRJIT_LIBLLVM_PATH is set
     python3 scripts/compare-mitsuba.py [--lucid PATH] [--rounds 6]
 
 Each round runs `lucid bench trace` once and renders once with each Mitsuba variant, each in
@@ -26,6 +26,20 @@ import sys
 import time
 
 ISSUE_SECONDS = {"scalar_rgb": 3.2, "llvm_ad_rgb": 1.2}
+
+
+def newest_libllvm():
+    """The newest Debian libLLVM of version 16 or later (older ones failed to compile Dr.Jit
+    1.5's AVX-512 kernels here), or None."""
+    import glob
+    import re
+
+    found = []
+    for path in glob.glob("/usr/lib/*/libLLVM-*.so") + glob.glob("/usr/lib/llvm-*/lib/libLLVM*.so"):
+        m = re.search(r"LLVM-?(\d+)", os.path.basename(path)) or re.search(r"llvm-(\d+)", path)
+        if m and int(m.group(1)) >= 16:
+            found.append((int(m.group(1)), path))
+    return max(found)[1] if found else None
 
 
 def lucid_run(binary):
@@ -99,6 +113,9 @@ def main():
     except ImportError as e:
         sys.exit(f"error: {e}: pip install mitsuba numpy")
 
+    if "DRJIT_LIBLLVM_PATH" not in os.environ and newest_libllvm():
+        os.environ["DRJIT_LIBLLVM_PATH"] = newest_libllvm()
+        print(f"using {os.environ['DRJIT_LIBLLVM_PATH']} for the LLVM variant", flush=True)
     variants = list(ISSUE_SECONDS)
     times = {"lucid": []} | {v: [] for v in variants}
     means = {}
