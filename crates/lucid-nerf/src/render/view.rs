@@ -18,14 +18,18 @@ use crate::field::FieldConfig;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 
-/// Rays per block of a view.
-const BLOCK_RAYS: usize = 1 << 14;
+/// Rays per block of a view: a 200×200 view in one, so that the rounds' tails (a few live rays
+/// each) come once per view rather than once per block (0.20 → 0.12 s per view with the
+/// round size below, measured on a trophy model).
+const BLOCK_RAYS: usize = 1 << 16;
 /// Samples per round of [`ViewRenderer::render_rays`]: enough for the field's matrix products
 /// to run at speed, few enough that rays are not evaluated far past the surface that stops
-/// them.
-const ROUND_SAMPLES: usize = 1 << 17;
+/// them. A ray gets `ROUND_SAMPLES / live` samples per round, so one sample each while most
+/// rays live and more as they stop: of the samples evaluated, 13 % lay past their ray's end
+/// (30 % with 2¹⁷ per round and at least 8 per ray).
+const ROUND_SAMPLES: usize = 1 << 15;
 /// The fewest samples a live ray gets in a round.
-const MIN_ROUND_SAMPLES: usize = 8;
+const MIN_ROUND_SAMPLES: usize = 1;
 /// Live rays per parallel marching task.
 const MARCH_CHUNK: usize = 256;
 
