@@ -113,9 +113,10 @@ def main():
     except ImportError as e:
         sys.exit(f"error: {e}: pip install mitsuba numpy")
 
-    if "DRJIT_LIBLLVM_PATH" not in os.environ and newest_libllvm():
-        os.environ["DRJIT_LIBLLVM_PATH"] = newest_libllvm()
-        print(f"using {os.environ['DRJIT_LIBLLVM_PATH']} for the LLVM variant", flush=True)
+    libllvm = None if "DRJIT_LIBLLVM_PATH" in os.environ else newest_libllvm()
+    if libllvm:
+        os.environ["DRJIT_LIBLLVM_PATH"] = libllvm
+        print(f"using {libllvm} for the LLVM variant", flush=True)
     variants = list(ISSUE_SECONDS)
     times = {"lucid": []} | {v: [] for v in variants}
     means = {}

@@ -45,15 +45,22 @@ impl OccupancyGrid {
         self.resolution.div_ceil(BLOCK)
     }
 
+    /// The index of the block holding the cell at `c`.
+    #[inline]
+    fn block_index(&self, c: UVec3) -> usize {
+        let (b, k) = (self.blocks_per_axis(), c / BLOCK);
+        ((k.z * b + k.y) * b + k.x) as usize
+    }
+
     fn rebuild_blocks(&mut self) {
-        let (r, b) = (self.resolution, self.blocks_per_axis());
-        let mut blocks = vec![false; (b as usize).pow(3)];
+        let r = self.resolution;
+        let mut blocks = vec![false; (self.blocks_per_axis() as usize).pow(3)];
         for z in 0..r {
             for y in 0..r {
                 for x in 0..r {
-                    let i = ((z * r + y) * r + x) as usize;
-                    if self.bits[i / 64] >> (i % 64) & 1 == 1 {
-                        blocks[(((z / BLOCK) * b + y / BLOCK) * b + x / BLOCK) as usize] = true;
+                    let c = UVec3::new(x, y, z);
+                    if self.is_occupied(self.index(c)) {
+                        blocks[self.block_index(c)] = true;
                     }
                 }
             }
@@ -105,12 +112,23 @@ impl OccupancyGrid {
         ((c.z * r + c.y) * r + c.x) as usize
     }
 
+    /// World-space position of the lowest corner of the cell at `c` (any `c`, also one past
+    /// the grid).
+    #[inline]
+    fn corner(&self, c: UVec3) -> Vec3 {
+        self.min + c.as_vec3() * self.cell_size()
+    }
+
+    #[inline]
+    fn cell_size(&self) -> Vec3 {
+        (self.max - self.min) / self.resolution as f32
+    }
+
     /// World-space corners of the cell at `c`.
     #[inline]
     pub fn bounds_of(&self, c: UVec3) -> (Vec3, Vec3) {
-        let size = (self.max - self.min) / self.resolution as f32;
-        let lo = self.min + c.as_vec3() * size;
-        (lo, lo + size)
+        let lo = self.corner(c);
+        (lo, lo + self.cell_size())
     }
 
     /// The empty space around the empty cell at `c` that a ray may cross in one jump: its
@@ -118,15 +136,11 @@ impl OccupancyGrid {
     /// the grid.
     #[inline]
     pub fn empty_span(&self, c: UVec3) -> (Vec3, Vec3) {
-        let b = self.blocks_per_axis();
-        let k = c / BLOCK;
-        if self.blocks[((k.z * b + k.y) * b + k.x) as usize] {
+        if self.blocks[self.block_index(c)] {
             return self.bounds_of(c);
         }
-        let size = (self.max - self.min) / self.resolution as f32;
-        let lo = self.min + (k * BLOCK).as_vec3() * size;
-        let hi = (self.min + ((k + 1) * BLOCK).as_vec3() * size).min(self.max);
-        (lo, hi)
+        let k = c / BLOCK;
+        (self.corner(k * BLOCK), self.corner((k + 1) * BLOCK).min(self.max))
     }
 
     /// Integer coordinates of cell `index`.
