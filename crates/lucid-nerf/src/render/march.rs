@@ -66,6 +66,11 @@ impl Default for MarchSettings {
     }
 }
 
+/// Empty space an empty-space sample stands for, as a fraction of the box diagonal: about
+/// five samples on a ray that crosses the box missing everything (one per empty block made
+/// such rays 4× as long as one that stops on a surface, and cut the rays of a batch by 3×).
+const EMPTY_SPAN: f32 = 0.125;
+
 /// Rays of an unbounded scene end this many contraction radii away: there the contracted
 /// point is within 0.01 % of the ball's edge.
 const FAR: f32 = 1e4;
@@ -109,6 +114,8 @@ pub struct RayMarcher {
     radius: f32,
     /// Beyond the radius, steps are at least this (in contracted units) times `|x|²/r`.
     far_step: f32,
+    /// Length of empty space one empty-space sample stands for (at least).
+    empty_span: f32,
 }
 
 impl RayMarcher {
@@ -126,6 +133,7 @@ impl RayMarcher {
             radius,
             // Half a cell of the grid over the contracted ball's cube (side 4r).
             far_step: 0.5 * 4.0 * radius / resolution.max(1) as f32,
+            empty_span: EMPTY_SPAN * diagonal,
         }
     }
 
@@ -169,17 +177,22 @@ impl RayMarcher {
     }
 
     /// Appends the samples of one ray to `t` and `dt`. `jitter ∈ [0,1)` shifts the first
-    /// sample by a fraction of a step (random in training, `0.5` to render).
+    /// sample by a fraction of a step (random in training, `0.5` to render). With
+    /// `sample_empty`, each jump over empty cells also gets one sample standing for all of it
+    /// (see [`MarchState::sample_empty`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn march(
         &self,
         origin: Vec3,
         dir: Vec3,
         grid: &OccupancyGrid,
         jitter: f32,
+        sample_empty: bool,
         t_out: &mut Vec<f32>,
         dt_out: &mut Vec<f32>,
     ) {
         if let Some(mut state) = self.start(origin, dir, grid, jitter) {
+            state.sample_empty = sample_empty;
             self.advance(origin, dir, grid, &mut state, usize::MAX, t_out, dt_out);
         }
     }
@@ -192,12 +205,12 @@ impl RayMarcher {
             let b = origin.dot(dir);
             let exit = -b + (b * b - origin.length_squared() + far * far).max(0.0).sqrt();
             let t = self.near;
-            return Some(MarchState { t: t + jitter * self.step_at(t, origin + t * dir), exit, samples: 0 });
+            return Some(MarchState::new(t + jitter * self.step_at(t, origin + t * dir), exit, jitter));
         }
         let (lo, hi) = grid.bounds();
         let (t0, t1) = intersect_box(origin, dir, lo, hi)?;
         let t = t0.max(self.near);
-        Some(MarchState { t: t + jitter * self.step(t), exit: t1, samples: 0 })
+        Some(MarchState::new(t + jitter * self.step(t), t1, jitter))
     }
 
     /// Appends up to `limit` more samples of the ray to `t` and `dt` (the same ones a single
@@ -226,6 +239,7 @@ impl RayMarcher {
             let Some(coords) = grid.coords_at(self.to_model(p)) else { break };
             let dt = self.step_at(t, p);
             if grid.is_occupied(grid.index(coords)) {
+                added += state.flush_empty(t, t_out, dt_out);
                 t_out.push(t);
                 dt_out.push(dt);
                 state.samples += 1;
@@ -239,11 +253,19 @@ impl RayMarcher {
                 // so the jump falls short of its exit, never past.)
                 let (clo, chi) = grid.empty_span(coords);
                 let exit = cell_exit(origin, inv, clo, chi);
-                t += ceil((exit - t) / dt).max(1.0) * dt;
+                let next = t + ceil((exit - t) / dt).max(1.0) * dt;
+                if state.sample_empty {
+                    let from = *state.empty_from.get_or_insert(t);
+                    if next - from >= self.empty_span {
+                        added += state.flush_empty(next, t_out, dt_out);
+                    }
+                }
+                t = next;
             } else {
                 t += dt;
             }
         }
+        state.flush_empty(t.min(state.exit), t_out, dt_out);
         state.t = t;
         false
     }
@@ -257,6 +279,12 @@ fn ceil(x: f32) -> f32 {
     (i + (x > i as f32) as i64) as f32
 }
 
+impl MarchState {
+    fn new(t: f32, exit: f32, jitter: f32) -> Self {
+        Self { t, exit, samples: 0, sample_empty: false, empty_from: None, empty_samples: 0, jitter }
+    }
+}
+
 /// How far the marching of one ray has got.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MarchState {
@@ -266,6 +294,38 @@ pub struct MarchState {
     exit: f32,
     /// Samples placed so far.
     samples: usize,
+    /// Whether a jump over empty cells leaves one sample at its middle, as long as the jump:
+    /// for training rays whose truth is transparent, every point they cross must be empty,
+    /// also in cells the grid has culled. There the field is never sampled otherwise, so its
+    /// density drifts as hash entries it shares with the surfaces are trained, until the
+    /// grid's refresh finds the drift and rays that rarely cross the cell must undo it: the
+    /// floaters that grew with training time on toys.
+    pub sample_empty: bool,
+    /// Where the empty space not yet sampled began.
+    empty_from: Option<f32>,
+    /// Empty-space samples placed so far.
+    empty_samples: u32,
+    /// The ray's jitter, which places the empty-space samples.
+    jitter: f32,
+}
+
+impl MarchState {
+    /// Places the pending empty-space sample, standing for `[empty_from, to)`, at a point of
+    /// it that varies from ray to ray and sample to sample; returns the samples added.
+    fn flush_empty(&mut self, to: f32, t_out: &mut Vec<f32>, dt_out: &mut Vec<f32>) -> usize {
+        let Some(from) = self.empty_from.take() else { return 0 };
+        if to <= from {
+            return 0;
+        }
+        // A golden-ratio sequence offset by the ray's jitter: even over the span, not the same
+        // point on every ray.
+        let u = (self.jitter + 0.618_034 * self.empty_samples as f32).fract();
+        self.empty_samples += 1;
+        t_out.push(from + u * (to - from));
+        dt_out.push(to - from);
+        self.samples += 1;
+        1
+    }
 }
 
 /// Entry and exit distances of a ray through a box, or `None` on a miss.
@@ -319,7 +379,7 @@ mod tests {
             let origin = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 4.0);
             let dir = (Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 0.0) * 0.3 - origin).normalize();
             let (mut t, mut dt) = (Vec::new(), Vec::new());
-            marcher.march(origin, dir, &grid, rng.uniform(), &mut t, &mut dt);
+            marcher.march(origin, dir, &grid, rng.uniform(), false, &mut t, &mut dt);
             for (&ti, &di) in t.iter().zip(&dt) {
                 let cell = grid.cell_at(origin + ti * dir).expect("inside the box");
                 assert!(grid.is_occupied(cell), "sample in an empty cell");
@@ -341,6 +401,63 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// With empty-space samples, a ray keeps its samples in occupied cells and gains a few
+    /// that stand for the empty stretches between them: sorted, in empty space, each at least
+    /// the span long unless an occupied sample or the box's exit cut it short, and together
+    /// covering the ray's whole chord through the box.
+    #[test]
+    fn empty_space_samples_cover_the_stretches_between_occupied_ones() {
+        let mut grid = OccupancyGrid::new(40, Vec3::splat(-1.0), Vec3::splat(1.0));
+        let obs: Vec<(u32, f32)> = (0..grid.cells())
+            .map(|i| {
+                let (lo, hi) = grid.cell_bounds(i);
+                let c = (lo + hi) * 0.5;
+                let inside = (c - Vec3::new(0.3, 0.0, 0.0)).length() < 0.25 || (c + Vec3::splat(0.4)).length() < 0.2;
+                (i as u32, if inside { 1.0 } else { 0.0 })
+            })
+            .collect();
+        grid.update(&obs, 0.0, 0.01);
+        let diagonal = 2.0 * 3f32.sqrt();
+        let marcher = RayMarcher::new(&MarchSettings::default(), diagonal, 0.002, 40);
+        let span = EMPTY_SPAN * diagonal;
+        let mut rng = Rng::new(3, 1);
+        let mut empty_total = 0;
+        for _ in 0..300 {
+            let origin = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 4.0);
+            let dir = (Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 0.0) * 1.5 - origin).normalize();
+            let jitter = rng.uniform();
+            let (mut t0, mut dt0) = (Vec::new(), Vec::new());
+            marcher.march(origin, dir, &grid, jitter, false, &mut t0, &mut dt0);
+            let (mut t, mut dt) = (Vec::new(), Vec::new());
+            marcher.march(origin, dir, &grid, jitter, true, &mut t, &mut dt);
+            let Some((entry, exit)) = intersect_box(origin, dir, Vec3::splat(-1.0), Vec3::splat(1.0)) else {
+                assert!(t.is_empty());
+                continue;
+            };
+            assert!(t.windows(2).all(|w| w[0] < w[1]), "samples out of order");
+            let occupied: Vec<(f32, f32)> =
+                t.iter().zip(&dt).map(|(&a, &b)| (a, b)).filter(|s| t0.contains(&s.0)).collect();
+            assert_eq!(occupied.len(), t0.len(), "the occupied-cell samples are unchanged");
+            let mut covered = 0.0;
+            for (i, (&ti, &di)) in t.iter().zip(&dt).enumerate() {
+                covered += di;
+                if t0.contains(&ti) {
+                    continue;
+                }
+                empty_total += 1;
+                let cell = grid.cell_at(origin + ti * dir).expect("inside the box");
+                // A jump lands a whole number of steps on, so up to a step past its cells.
+                let near_occupied = t0.iter().any(|&o| (o - ti).abs() <= 1.01 * marcher.step(o));
+                assert!(!grid.is_occupied(cell) || near_occupied, "an empty-space sample in an occupied cell");
+                let cut_short = t.get(i + 1).is_some_and(|n| t0.contains(n)) || ti + di >= exit - 0.05;
+                assert!(di >= span || cut_short, "empty sample standing for {di} < {span}");
+            }
+            let chord = exit - entry;
+            assert!((covered - chord).abs() < 0.1, "samples cover {covered} of a chord of {chord}");
+        }
+        assert!(empty_total > 300, "rays crossing empty space got empty-space samples");
     }
 
     #[test]

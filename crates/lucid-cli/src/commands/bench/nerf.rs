@@ -112,6 +112,7 @@ fn report(
         "compositing_and_loss": phases.composite / total,
         "optimizer": phases.optimizer / total,
         "ray_marching": phases.march / total,
+        "cut_at_termination": phases.cut / total,
         "occupancy_grid": phases.occupancy / total,
     });
     println!("time per phase:");
