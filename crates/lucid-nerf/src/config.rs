@@ -87,9 +87,10 @@ pub struct TrainConfig {
     /// get no gradient and are not evaluated): the number of rays adapts to keep this many.
     /// 2^14 keeps about the rays per step of 2^15 before the cut (about half the marched
     /// samples lay behind surfaces), so the steps got cheaper rather than fewer. Validation
-    /// views at 120 s: toys 33.61 dB at 2^14, 32.94 at 2^15, 33.48 at 2^13; trophy 32.05-32.30
-    /// at 2^14, 31.95 at 2^15. (Before the cut, 2^15 measured best: 3-minute runs on the
-    /// object set, 2^14 28.56 dB, 2^15 28.72, 2^16 28.13.)
+    /// views at 120 s: toys 33.61 dB at 2^14, 32.94 at 2^15, 33.59 at 2^13; trophy 32.23 at
+    /// 2^14, 32.13 at 2^13 (31.95 at 2^15 before the empty-space samples). (Before the cut,
+    /// 2^15 measured best: 3-minute runs on the object set, 2^14 28.56 dB, 2^15 28.72, 2^16
+    /// 28.13.)
     pub batch_samples: usize,
     /// The factor the batch grows by over the run's budget (steps or seconds), geometrically
     /// from `batch_samples`: early steps many and cheap while the model is coarse, late ones
