@@ -178,8 +178,8 @@ impl RayMarcher {
 
     /// Appends the samples of one ray to `t` and `dt`. `jitter ∈ [0,1)` shifts the first
     /// sample by a fraction of a step (random in training, `0.5` to render). With
-    /// `sample_empty`, each jump over empty cells also gets one sample standing for all of it
-    /// (see [`MarchState::sample_empty`]).
+    /// `sample_empty`, the empty space crossed also gets samples, one per stretch of at least
+    /// [`EMPTY_SPAN`] of the diagonal (see [`MarchState::sample_empty`]).
     #[allow(clippy::too_many_arguments)]
     pub fn march(
         &self,
@@ -279,12 +279,6 @@ fn ceil(x: f32) -> f32 {
     (i + (x > i as f32) as i64) as f32
 }
 
-impl MarchState {
-    fn new(t: f32, exit: f32, jitter: f32) -> Self {
-        Self { t, exit, samples: 0, sample_empty: false, empty_from: None, empty_samples: 0, jitter }
-    }
-}
-
 /// How far the marching of one ray has got.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MarchState {
@@ -294,12 +288,13 @@ pub struct MarchState {
     exit: f32,
     /// Samples placed so far.
     samples: usize,
-    /// Whether a jump over empty cells leaves one sample at its middle, as long as the jump:
-    /// for training rays whose truth is transparent, every point they cross must be empty,
-    /// also in cells the grid has culled. There the field is never sampled otherwise, so its
-    /// density drifts as hash entries it shares with the surfaces are trained, until the
-    /// grid's refresh finds the drift and rays that rarely cross the cell must undo it: the
-    /// floaters that grew with training time on toys.
+    /// Whether the empty space the ray jumps over gets samples: one per stretch of at least
+    /// [`EMPTY_SPAN`] of the diagonal (cut short by an occupied sample or the ray's end),
+    /// standing for all of it. For training rays whose truth is transparent, every point they
+    /// cross must be empty, also in cells the grid has culled. There the field is never
+    /// sampled otherwise, so its density drifts as hash entries it shares with the surfaces
+    /// are trained, until the grid's refresh finds the drift and rays that rarely cross the
+    /// cell must undo it: the floaters that grew with training time on toys.
     pub sample_empty: bool,
     /// Where the empty space not yet sampled began.
     empty_from: Option<f32>,
@@ -310,6 +305,10 @@ pub struct MarchState {
 }
 
 impl MarchState {
+    fn new(t: f32, exit: f32, jitter: f32) -> Self {
+        Self { t, exit, samples: 0, sample_empty: false, empty_from: None, empty_samples: 0, jitter }
+    }
+
     /// Places the pending empty-space sample, standing for `[empty_from, to)`, at a point of
     /// it that varies from ray to ray and sample to sample; returns the samples added.
     fn flush_empty(&mut self, to: f32, t_out: &mut Vec<f32>, dt_out: &mut Vec<f32>) -> usize {
@@ -437,9 +436,8 @@ mod tests {
                 continue;
             };
             assert!(t.windows(2).all(|w| w[0] < w[1]), "samples out of order");
-            let occupied: Vec<(f32, f32)> =
-                t.iter().zip(&dt).map(|(&a, &b)| (a, b)).filter(|s| t0.contains(&s.0)).collect();
-            assert_eq!(occupied.len(), t0.len(), "the occupied-cell samples are unchanged");
+            let occupied = t.iter().filter(|ti| t0.contains(ti)).count();
+            assert_eq!(occupied, t0.len(), "the occupied-cell samples are unchanged");
             let mut covered = 0.0;
             for (i, (&ti, &di)) in t.iter().zip(&dt).enumerate() {
                 covered += di;
