@@ -60,4 +60,21 @@ impl NerfModel {
     pub fn density(&self, positions: Tensor<2>, config: FieldConfig) -> Tensor<1> {
         ops::field_density(positions, self.table.val(), self.mlp.val(), config)
     }
+
+    /// Density and the activations that gave it, never tracked: see [`Self::field_from_density`].
+    pub fn density_saving(&self, positions: Tensor<2>, config: FieldConfig) -> (Tensor<1>, Tensor<2>) {
+        ops::field_density_saving(positions, self.table.val(), self.mlp.val(), config)
+    }
+
+    /// [`Self::field`] from the activations [`Self::density_saving`] gave at the positions
+    /// with the current weights.
+    pub fn field_from_density(
+        &self,
+        positions: Tensor<2>,
+        directions: Tensor<2>,
+        density: Tensor<2>,
+        config: FieldConfig,
+    ) -> Tensor<2> {
+        ops::field_from_density(positions, directions, density, self.table.val(), self.mlp.val(), config)
+    }
 }

@@ -46,7 +46,7 @@ pub trait NerfOps: Backend {
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        field_host::<Self>(positions, directions, table, mlp, config, false).0
+        field_host::<Self>(positions, directions, None, table, mlp, config, false).0
     }
 
     /// As [`Self::field_forward`], also returning the activations the backward needs.
@@ -57,7 +57,34 @@ pub trait NerfOps: Backend {
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
-        let (out, saved) = field_host::<Self>(positions, directions, table, mlp, config, true);
+        let (out, saved) = field_host::<Self>(positions, directions, None, table, mlp, config, true);
+        (out, saved.expect("saved activations"))
+    }
+
+    /// As [`Self::field_forward`], going on from the density's activations at the positions
+    /// (`S×`[`crate::field::FieldLayout::density_width`], as [`Self::field_density_saving`]
+    /// gave them with these weights).
+    fn field_from_density(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        density: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        field_host::<Self>(positions, directions, Some(density), table, mlp, config, false).0
+    }
+
+    /// As [`Self::field_from_density`], also returning the activations the backward needs.
+    fn field_from_density_saving(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        density: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let (out, saved) = field_host::<Self>(positions, directions, Some(density), table, mlp, config, true);
         (out, saved.expect("saved activations"))
     }
 
@@ -96,6 +123,26 @@ pub trait NerfOps: Backend {
         Self::float_from_data(TensorData::new(out, [n]), &device)
     }
 
+    /// Density (`S`) and the activations that gave it (`S×`
+    /// [`crate::field::FieldLayout::density_width`]), for [`Self::field_forward`] to go on from.
+    fn field_density_saving(
+        positions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let device = positions.device();
+        let layout = config.layout();
+        let pos = to_host::<Self>(positions);
+        let n = pos.len() / 3;
+        let (mut out, mut saved) = (vec![0.0; n], vec![0.0; n * layout.density_width()]);
+        layout.density_saving(&pos, &to_host::<Self>(table), &to_host::<Self>(mlp), &mut out, &mut saved);
+        (
+            Self::float_from_data(TensorData::new(out, [n]), &device),
+            Self::float_from_data(TensorData::new(saved, [n, layout.density_width()]), &device),
+        )
+    }
+
     /// Composites `raw` (`S×4`) into `R×5` (`r, g, b, opacity, depth`).
     fn composite(raw: FloatTensor<Self>, args: CompositeArgs) -> FloatTensor<Self> {
         let device = raw.device();
@@ -123,6 +170,7 @@ pub trait NerfOps: Backend {
 fn field_host<B: Backend>(
     positions: FloatTensor<B>,
     directions: FloatTensor<B>,
+    density: Option<FloatTensor<B>>,
     table: FloatTensor<B>,
     mlp: FloatTensor<B>,
     config: FieldConfig,
@@ -130,11 +178,18 @@ fn field_host<B: Backend>(
 ) -> (FloatTensor<B>, Option<FloatTensor<B>>) {
     let device = positions.device();
     let layout = config.layout();
-    let (pos, dir) = (to_host::<B>(positions), to_host::<B>(directions));
-    let s = pos.len() / 3;
+    let dir = to_host::<B>(directions);
+    let s = dir.len() / 3;
     let mut out = vec![0.0; 4 * s];
     let mut saved = save.then(|| vec![0.0; s * layout.saved_per_sample()]);
-    layout.forward(&pos, &dir, &to_host::<B>(table), &to_host::<B>(mlp), &mut out, saved.as_deref_mut());
+    let mlp = to_host::<B>(mlp);
+    match density {
+        Some(d) => layout.forward_from_density(&to_host::<B>(d), &dir, &mlp, &mut out, saved.as_deref_mut()),
+        None => {
+            let (pos, table) = (to_host::<B>(positions), to_host::<B>(table));
+            layout.forward(&pos, &dir, &table, &mlp, &mut out, saved.as_deref_mut())
+        }
+    }
     let out = B::float_from_data(TensorData::new(out, [s, 4]), &device);
     let saved = saved.map(|v| B::float_from_data(TensorData::new(v, [s, layout.saved_per_sample()]), &device));
     (out, saved)
@@ -154,6 +209,32 @@ mod flex_impl {
         FlexTensor::from_data(TensorData::new(v, shape))
     }
 
+    /// The field's forward on flex storage, from the positions or the density's activations,
+    /// and the activations the backward needs if `save`.
+    fn forward(
+        positions: &FlexTensor,
+        directions: &FlexTensor,
+        density: Option<&FlexTensor>,
+        table: &FlexTensor,
+        mlp: &FlexTensor,
+        config: FieldConfig,
+        save: bool,
+    ) -> (FlexTensor, Option<FlexTensor>) {
+        let layout = config.layout();
+        let width = layout.saved_per_sample();
+        let dir = values(directions);
+        let s = dir.len() / 3;
+        let mut out = vec![0.0; 4 * s];
+        let mut saved = save.then(|| vec![0.0; s * width]);
+        match density {
+            Some(d) => layout.forward_from_density(&values(d), &dir, &values(mlp), &mut out, saved.as_deref_mut()),
+            None => {
+                layout.forward(&values(positions), &dir, &values(table), &values(mlp), &mut out, saved.as_deref_mut())
+            }
+        }
+        (tensor(out, [s, 4]), saved.map(|v| tensor(v, [s, width])))
+    }
+
     impl NerfOps for Flex {
         fn field_forward(
             positions: FlexTensor,
@@ -162,12 +243,7 @@ mod flex_impl {
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> FlexTensor {
-            let layout = config.layout();
-            let pos = values(&positions);
-            let s = pos.len() / 3;
-            let mut out = vec![0.0; 4 * s];
-            layout.forward(&pos, &values(&directions), &values(&table), &values(&mlp), &mut out, None);
-            tensor(out, [s, 4])
+            forward(&positions, &directions, None, &table, &mlp, config, false).0
         }
 
         fn field_forward_saving(
@@ -177,13 +253,31 @@ mod flex_impl {
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> (FlexTensor, FlexTensor) {
-            let layout = config.layout();
-            let pos = values(&positions);
-            let s = pos.len() / 3;
-            let mut out = vec![0.0; 4 * s];
-            let mut saved = vec![0.0; s * layout.saved_per_sample()];
-            layout.forward(&pos, &values(&directions), &values(&table), &values(&mlp), &mut out, Some(&mut saved));
-            (tensor(out, [s, 4]), tensor(saved, [s, layout.saved_per_sample()]))
+            let (out, saved) = forward(&positions, &directions, None, &table, &mlp, config, true);
+            (out, saved.expect("saved activations"))
+        }
+
+        fn field_from_density(
+            positions: FlexTensor,
+            directions: FlexTensor,
+            density: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> FlexTensor {
+            forward(&positions, &directions, Some(&density), &table, &mlp, config, false).0
+        }
+
+        fn field_from_density_saving(
+            positions: FlexTensor,
+            directions: FlexTensor,
+            density: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> (FlexTensor, FlexTensor) {
+            let (out, saved) = forward(&positions, &directions, Some(&density), &table, &mlp, config, true);
+            (out, saved.expect("saved activations"))
         }
 
         fn field_backward(
@@ -206,6 +300,20 @@ mod flex_impl {
             config.layout().density(&pos, &values(&table), &values(&mlp), &mut out);
             let n = out.len();
             tensor(out, [n])
+        }
+
+        fn field_density_saving(
+            positions: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> (FlexTensor, FlexTensor) {
+            let layout = config.layout();
+            let pos = values(&positions);
+            let n = pos.len() / 3;
+            let (mut out, mut saved) = (vec![0.0; n], vec![0.0; n * layout.density_width()]);
+            layout.density_saving(&pos, &values(&table), &values(&mlp), &mut out, &mut saved);
+            (tensor(out, [n]), tensor(saved, [n, layout.density_width()]))
         }
 
         fn composite(raw: FlexTensor, args: CompositeArgs) -> FlexTensor {
@@ -238,36 +346,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        #[derive(Debug)]
-        struct FieldBackward;
-
-        impl<B: Backend + NerfOps> Backward<B, 2> for FieldBackward {
-            type State = (FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FieldConfig);
-
-            fn backward(self, ops: Ops<Self::State, 2>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
-                let (positions, mlp, saved, config) = ops.state;
-                let grad_out = grads.consume::<B>(&ops.node);
-                let (gt, gm) = B::field_backward(positions, mlp, saved, grad_out, config);
-                let [table_node, mlp_node] = ops.parents;
-                if let Some(node) = table_node {
-                    grads.register::<B>(node.id, gt);
-                }
-                if let Some(node) = mlp_node {
-                    grads.register::<B>(node.id, gm);
-                }
-            }
-        }
-
-        let (table_node, mlp_node) = (table.node(), mlp.node());
-        let (positions, directions) = (positions.into_primitive(), directions.into_primitive());
-        let (table, mlp) = (table.into_primitive(), mlp.into_primitive());
-        match FieldBackward.prepare::<C>([table_node, mlp_node]).compute_bound().stateful() {
-            OpsKind::Tracked(prep) => {
-                let (out, saved) = B::field_forward_saving(positions.clone(), directions, table, mlp.clone(), config);
-                prep.finish((positions, mlp, saved, config), out)
-            }
-            OpsKind::UnTracked(prep) => prep.finish(B::field_forward(positions, directions, table, mlp, config)),
-        }
+        tracked_field::<B, C>(positions, directions, None, table, mlp, config)
     }
 
     fn field_forward_saving(
@@ -280,6 +359,36 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
         let (out, saved) = B::field_forward_saving(
             positions.into_primitive(),
             directions.into_primitive(),
+            table.into_primitive(),
+            mlp.into_primitive(),
+            config,
+        );
+        (constant::<B, C>(out), constant::<B, C>(saved))
+    }
+
+    fn field_from_density(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        density: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> FloatTensor<Self> {
+        tracked_field::<B, C>(positions, directions, Some(density.into_primitive()), table, mlp, config)
+    }
+
+    fn field_from_density_saving(
+        positions: FloatTensor<Self>,
+        directions: FloatTensor<Self>,
+        density: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let (out, saved) = B::field_from_density_saving(
+            positions.into_primitive(),
+            directions.into_primitive(),
+            density.into_primitive(),
             table.into_primitive(),
             mlp.into_primitive(),
             config,
@@ -315,6 +424,17 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
         constant::<B, C>(out)
     }
 
+    fn field_density_saving(
+        positions: FloatTensor<Self>,
+        table: FloatTensor<Self>,
+        mlp: FloatTensor<Self>,
+        config: FieldConfig,
+    ) -> (FloatTensor<Self>, FloatTensor<Self>) {
+        let (out, saved) =
+            B::field_density_saving(positions.into_primitive(), table.into_primitive(), mlp.into_primitive(), config);
+        (constant::<B, C>(out), constant::<B, C>(saved))
+    }
+
     fn composite(raw: FloatTensor<Self>, args: CompositeArgs) -> FloatTensor<Self> {
         #[derive(Debug)]
         struct CompositeBackward;
@@ -348,6 +468,56 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
     }
 }
 
+/// The field on the autodiff backend, from the positions or (`density`) the density's
+/// activations there: the backward gives `∂loss/∂table` and `∂loss/∂mlp`. Activations that
+/// came from the table and the MLP outside the graph are the forward's first layers, and the
+/// backward goes through them to both.
+fn tracked_field<B: Backend + NerfOps, C: CheckpointStrategy>(
+    positions: FloatTensor<Autodiff<B, C>>,
+    directions: FloatTensor<Autodiff<B, C>>,
+    density: Option<FloatTensor<B>>,
+    table: FloatTensor<Autodiff<B, C>>,
+    mlp: FloatTensor<Autodiff<B, C>>,
+    config: FieldConfig,
+) -> FloatTensor<Autodiff<B, C>> {
+    #[derive(Debug)]
+    struct FieldBackward;
+
+    impl<B: Backend + NerfOps> Backward<B, 2> for FieldBackward {
+        type State = (FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FieldConfig);
+
+        fn backward(self, ops: Ops<Self::State, 2>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
+            let (positions, mlp, saved, config) = ops.state;
+            let grad_out = grads.consume::<B>(&ops.node);
+            let (gt, gm) = B::field_backward(positions, mlp, saved, grad_out, config);
+            let [table_node, mlp_node] = ops.parents;
+            if let Some(node) = table_node {
+                grads.register::<B>(node.id, gt);
+            }
+            if let Some(node) = mlp_node {
+                grads.register::<B>(node.id, gm);
+            }
+        }
+    }
+
+    let (table_node, mlp_node) = (table.node(), mlp.node());
+    let (positions, directions) = (positions.into_primitive(), directions.into_primitive());
+    let (table, mlp) = (table.into_primitive(), mlp.into_primitive());
+    match FieldBackward.prepare::<C>([table_node, mlp_node]).compute_bound().stateful() {
+        OpsKind::Tracked(prep) => {
+            let (out, saved) = match density {
+                Some(d) => B::field_from_density_saving(positions.clone(), directions, d, table, mlp.clone(), config),
+                None => B::field_forward_saving(positions.clone(), directions, table, mlp.clone(), config),
+            };
+            prep.finish((positions, mlp, saved, config), out)
+        }
+        OpsKind::UnTracked(prep) => prep.finish(match density {
+            Some(d) => B::field_from_density(positions, directions, d, table, mlp, config),
+            None => B::field_forward(positions, directions, table, mlp, config),
+        }),
+    }
+}
+
 /// Evaluates the field: `S×4` (`σ, r, g, b`), differentiable with respect to `table` and `mlp`.
 pub fn field(
     positions: Tensor<2>,
@@ -364,6 +534,45 @@ pub fn field(
         config,
     );
     Tensor::from_dispatch(out)
+}
+
+/// As [`field`], going on from the density's activations at the positions (as
+/// [`field_density_saving`] gave them with these weights): the same values and gradients,
+/// without evaluating the encoding and the density MLP again.
+pub fn field_from_density(
+    positions: Tensor<2>,
+    directions: Tensor<2>,
+    density: Tensor<2>,
+    table: Tensor<2>,
+    mlp: Tensor<1>,
+    config: FieldConfig,
+) -> Tensor<2> {
+    let out = <Dispatch as NerfOps>::field_from_density(
+        positions.into_dispatch(),
+        directions.into_dispatch(),
+        density.into_dispatch(),
+        table.into_dispatch(),
+        mlp.into_dispatch(),
+        config,
+    );
+    Tensor::from_dispatch(out)
+}
+
+/// The field's density (`S`) and the activations that gave it (`S×`
+/// [`crate::field::FieldLayout::density_width`]), never tracked.
+pub fn field_density_saving(
+    positions: Tensor<2>,
+    table: Tensor<2>,
+    mlp: Tensor<1>,
+    config: FieldConfig,
+) -> (Tensor<1>, Tensor<2>) {
+    let (out, saved) = <Dispatch as NerfOps>::field_density_saving(
+        positions.into_dispatch(),
+        table.into_dispatch(),
+        mlp.into_dispatch(),
+        config,
+    );
+    (Tensor::from_dispatch(out), Tensor::from_dispatch(saved))
 }
 
 /// The field's density only (`S`), never tracked.

@@ -19,7 +19,7 @@ use crate::error_map::ErrorMap;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 use crate::ops;
-use crate::render::batch::{cut_at_termination, march_rays};
+use crate::render::batch::march_to_termination;
 use crate::render::march::RayMarcher;
 use crate::render::view::ViewRenderer;
 use lucid_burn::FusedAdam;
@@ -49,7 +49,7 @@ pub struct StepTimings {
     pub occupancy: f64,
     /// Pixel sampling and ray marching.
     pub march: f64,
-    /// The density pre-pass that cuts rays where they stop.
+    /// The density evaluations that find where each ray stops (in rounds with the marching).
     pub cut: f64,
     /// Field evaluation (encoding + MLPs).
     pub field: f64,
@@ -135,6 +135,26 @@ pub struct NerfTrainer {
     device: Device,
 }
 
+/// The rows `indices` (counted over all rounds) of the row-major `width`-column matrices
+/// `rounds`, one after the other.
+fn gather_round_rows(rounds: &[Vec<f32>], width: usize, indices: &[u32]) -> Vec<f32> {
+    use rayon::prelude::*;
+    let mut starts = vec![0usize];
+    for r in rounds {
+        starts.push(starts.last().unwrap() + r.len() / width);
+    }
+    let mut out = vec![0.0; indices.len() * width];
+    out.par_chunks_mut(width * 1024).zip(indices.par_chunks(1024)).for_each(|(out, idx)| {
+        for (o, &i) in out.chunks_exact_mut(width).zip(idx) {
+            let i = i as usize;
+            let r = starts.partition_point(|&s| s <= i) - 1;
+            let row = i - starts[r];
+            o.copy_from_slice(&rounds[r][row * width..(row + 1) * width]);
+        }
+    });
+    out
+}
+
 /// Adam with the configured betas and ε ([`FusedAdam`], burn's update in one pass) in
 /// burn's module optimiser; weight decay on the MLP weights only.
 pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
@@ -146,11 +166,6 @@ pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
 
 /// Draws of another pixel before a ray whose pixel is masked out is given up.
 const MASK_REDRAWS: usize = 32;
-
-/// Samples marched per step, as a multiple of the batch: the cut at termination keeps about
-/// half of them once surfaces are learned (45 % on trophy), so four times leaves room
-/// without letting a scene of thin haze march without bound.
-const MARCH_BUDGET: usize = 4;
 
 /// Truth alpha below which a pixel counts as seeing nothing (half an 8-bit step).
 const TRANSPARENT: f32 = 0.5 / 255.0;
@@ -306,20 +321,31 @@ impl NerfTrainer {
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
         let marcher = self.marcher();
-        let (marched, _) = march_rays(
+        let mut density_seconds = 0.0;
+        // The density's activations at every sample evaluated, round after round, for the
+        // field to go on from.
+        let mut activations: Vec<Vec<f32>> = Vec::new();
+        let (batch, kept) = march_to_termination(
             &rays,
             |i| Rng::new(seed, i as u64).uniform(),
             |i| targets[i][3] < TRANSPARENT,
             &marcher,
             &self.grid,
-            Some(MARCH_BUDGET * batch_samples),
+            |positions| {
+                let start = Instant::now();
+                let pos =
+                    Tensor::<2>::from_data(TensorData::new(positions.to_vec(), [positions.len() / 3, 3]), &self.device);
+                let (sigma, act) = self.model.density_saving(pos, self.config.field);
+                activations.push(act.into_data().try_into_vec::<f32>().expect("f32"));
+                density_seconds += start.elapsed().as_secs_f64();
+                sigma.into_data().try_into_vec::<f32>().expect("f32")
+            },
+            cfg.min_transmittance,
+            batch_samples,
         );
         lap(&mut timings.march);
-        let s = marched.samples.samples();
-        let pos = Tensor::<2>::from_data(TensorData::new(marched.positions.clone(), [s, 3]), &self.device);
-        let sigma = self.model.density(pos, self.config.field).into_data().try_to_vec::<f32>().expect("f32");
-        let (batch, kept) = cut_at_termination(marched, &sigma, cfg.min_transmittance, batch_samples);
-        lap(&mut timings.cut);
+        timings.cut = density_seconds;
+        timings.march -= density_seconds;
         let s = batch.samples.samples();
         // Adapt the ray count so the next batch fills the sample budget after the cut.
         let per_ray = s.max(1) as f32 / kept.max(1) as f32;
@@ -342,7 +368,12 @@ impl NerfTrainer {
         let device = &self.device;
         let pos = Tensor::<2>::from_data(TensorData::new(batch.positions, [s, 3]), device);
         let dir = Tensor::<2>::from_data(TensorData::new(batch.directions, [s, 3]), device);
-        let raw = self.model.field(pos, dir, self.config.field);
+        let width = self.config.field.layout().density_width();
+        let density = Tensor::<2>::from_data(
+            TensorData::new(gather_round_rows(&activations, width, &batch.evaluated), [s, width]),
+            device,
+        );
+        let raw = self.model.field_from_density(pos, dir, density, self.config.field);
         lap(&mut timings.field);
         let out = ops::composite(raw, Arc::new(batch.samples), cfg.min_transmittance);
         let rgb = out.clone().slice([0..kept, 0..3]);
@@ -451,6 +482,17 @@ impl NerfTrainer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_are_gathered_across_rounds_by_their_overall_index() {
+        // Rounds of 2, 0 and 3 rows of width 2; row i holds (i, -i).
+        let rounds = vec![vec![0.0, -0.0, 1.0, -1.0], vec![], vec![2.0, -2.0, 3.0, -3.0, 4.0, -4.0]];
+        let indices: Vec<u32> = (0..3000).map(|k| (k * 7 % 5) as u32).collect();
+        let out = gather_round_rows(&rounds, 2, &indices);
+        for (row, &i) in out.chunks(2).zip(&indices) {
+            assert_eq!(row, [i as f32, -(i as f32)]);
+        }
+    }
 
     #[test]
     fn timings_come_back_from_their_names() {

@@ -136,6 +136,13 @@ impl FieldLayout {
         self.stride
     }
 
+    /// Floats per sample of the density's activations (the encoding and the density MLP's
+    /// layers): the start of a saved row, which [`Self::density_saving`] gives and
+    /// [`Self::forward_from_density`] starts from.
+    pub fn density_width(&self) -> usize {
+        self.colour_in + self.density.output()
+    }
+
     /// Evaluates `σ, r, g, b` (`S×4`) at `positions` (`S×3`, in `[0,1]`) seen along unit
     /// `directions` (`S×3`). With `saved` (`S×`[`Self::saved_per_sample`]) it keeps the
     /// activations that [`Self::backward`] needs.
@@ -148,21 +155,62 @@ impl FieldLayout {
         out: &mut [f32],
         saved: Option<&mut [f32]>,
     ) {
-        let s = positions.len() / 3;
-        assert_eq!(directions.len(), s * 3, "one direction per position");
+        assert_eq!(positions.len(), directions.len(), "one direction per position");
+        self.forward_with(FieldInput::Positions { positions, table }, directions, mlp, out, saved);
+    }
+
+    /// As [`Self::forward`], from the density's activations at the positions
+    /// (`S×`[`Self::density_width`], as [`Self::density_saving`] gave them with the same
+    /// weights): the encoding and the density MLP are not evaluated again.
+    pub fn forward_from_density(
+        &self,
+        density: &[f32],
+        directions: &[f32],
+        mlp: &[f32],
+        out: &mut [f32],
+        saved: Option<&mut [f32]>,
+    ) {
+        assert_eq!(density.len() / self.density_width(), directions.len() / 3, "one direction per sample");
+        self.forward_with(FieldInput::Density(density), directions, mlp, out, saved);
+    }
+
+    fn forward_with(
+        &self,
+        input: FieldInput<'_>,
+        directions: &[f32],
+        mlp: &[f32],
+        out: &mut [f32],
+        saved: Option<&mut [f32]>,
+    ) {
+        let s = directions.len() / 3;
         assert_eq!(out.len(), s * 4, "output is S×4");
         assert_eq!(mlp.len(), self.mlp_params(), "MLP weights have the wrong size");
         let stride = self.stride;
-        let run = |pos: &[f32], dir: &[f32], out: &mut [f32], act: &mut [f32]| {
-            let n = pos.len() / 3;
-            self.grid.encode_chunk(pos, table, act, stride);
+        let width = self.density_width();
+        let run = |c: usize, out: &mut [f32], act: &mut [f32]| {
+            let n = out.len() / 4;
+            let rows = c * CHUNK..c * CHUNK + n;
+            match input {
+                FieldInput::Positions { positions, table } => {
+                    let pos = &positions[3 * rows.start..3 * rows.end];
+                    self.grid.encode_chunk(pos, table, act, stride);
+                    self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, stride);
+                }
+                FieldInput::Density(density) => {
+                    for (row, d) in
+                        act.chunks_mut(stride).zip(density[width * rows.start..width * rows.end].chunks(width))
+                    {
+                        row[..width].copy_from_slice(d);
+                    }
+                }
+            }
+            let dir = &directions[3 * rows.start..3 * rows.end];
             for i in 0..n {
                 let row = &mut act[i * stride..(i + 1) * stride];
-                let sh = &mut row[self.colour_in + self.density.output()..][..SH_COEFFICIENTS];
+                let sh = &mut row[width..][..SH_COEFFICIENTS];
                 sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
             }
-            self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n);
-            self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n);
+            self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n, stride);
             for i in 0..n {
                 let row = &mut act[i * stride..(i + 1) * stride];
                 row[self.result] = row[self.colour_in].min(MAX_LOG_DENSITY).exp();
@@ -178,38 +226,60 @@ impl FieldLayout {
                 saved
                     .par_chunks_mut(CHUNK * stride)
                     .zip(out.par_chunks_mut(CHUNK * 4))
-                    .zip(positions.par_chunks(CHUNK * 3).zip(directions.par_chunks(CHUNK * 3)))
-                    .for_each(|((act, out), (pos, dir))| run(pos, dir, out, act));
+                    .enumerate()
+                    .for_each(|(c, (act, out))| run(c, out, act));
             }
             None => out
                 .par_chunks_mut(CHUNK * 4)
-                .zip(positions.par_chunks(CHUNK * 3).zip(directions.par_chunks(CHUNK * 3)))
-                .for_each_init(|| vec![0.0; CHUNK * stride], |act, (out, (pos, dir))| run(pos, dir, out, act)),
+                .enumerate()
+                .for_each_init(|| vec![0.0; CHUNK * stride], |act, (c, out)| run(c, out, act)),
         }
     }
 
     /// Density `σ` only (`S`), for the occupancy grid: no colour MLP.
     pub fn density(&self, positions: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32]) {
         assert_eq!(out.len(), positions.len() / 3, "one density per position");
-        let stride = self.stride;
+        let width = self.density_width();
         out.par_chunks_mut(CHUNK).zip(positions.par_chunks(CHUNK * 3)).for_each_init(
-            || vec![0.0; CHUNK * stride],
-            |act, (out, pos)| {
-                let n = out.len();
-                self.grid.encode_chunk(pos, table, act, stride);
-                self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n);
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = act[i * stride + self.colour_in].min(MAX_LOG_DENSITY).exp();
-                }
-            },
+            || vec![0.0; CHUNK * width],
+            |act, (out, pos)| self.density_chunk(pos, table, mlp, out, act),
         );
     }
 
-    /// Runs one MLP on `n` saved rows: input at column `input`, layer `i`'s output at
-    /// `outputs[i]`; ReLU on hidden layers, the last layer linear.
-    #[allow(unsafe_code)] // interleaved input/output columns of one buffer: see the SAFETY note
-    fn mlp_forward(&self, shape: &MlpShape, input: usize, outputs: &[usize], w: &[f32], act: &mut [f32], n: usize) {
-        let stride = self.stride;
+    /// Density `σ` (`S`) and the activations that gave it (`S×`[`Self::density_width`]), from
+    /// which [`Self::forward_from_density`] goes on.
+    pub fn density_saving(&self, positions: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], saved: &mut [f32]) {
+        let width = self.density_width();
+        assert_eq!(out.len(), positions.len() / 3, "one density per position");
+        assert_eq!(saved.len(), out.len() * width, "saved activations are S×{width}");
+        out.par_chunks_mut(CHUNK)
+            .zip(positions.par_chunks(CHUNK * 3).zip(saved.par_chunks_mut(CHUNK * width)))
+            .for_each(|(out, (pos, act))| self.density_chunk(pos, table, mlp, out, act));
+    }
+
+    /// Encoding and density MLP of one chunk, in rows of [`Self::density_width`].
+    fn density_chunk(&self, pos: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], act: &mut [f32]) {
+        let (n, width) = (out.len(), self.density_width());
+        self.grid.encode_chunk(pos, table, act, width);
+        self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, width);
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = act[i * width + self.colour_in].min(MAX_LOG_DENSITY).exp();
+        }
+    }
+
+    /// Runs one MLP on `n` rows of `stride` floats: input at column `input`, layer `i`'s
+    /// output at `outputs[i]`; ReLU on hidden layers, the last layer linear.
+    #[allow(unsafe_code, clippy::too_many_arguments)] // interleaved columns of one buffer: see the SAFETY note
+    fn mlp_forward(
+        &self,
+        shape: &MlpShape,
+        input: usize,
+        outputs: &[usize],
+        w: &[f32],
+        act: &mut [f32],
+        n: usize,
+        stride: usize,
+    ) {
         let mut from = input;
         for (l, &to) in outputs.iter().enumerate() {
             let (k, m, off) = shape.layer(l);
@@ -387,8 +457,15 @@ impl FieldLayout {
     }
 }
 
+/// Where the field's forward starts: positions (and the table), or the density's activations.
+#[derive(Clone, Copy)]
+enum FieldInput<'a> {
+    Positions { positions: &'a [f32], table: &'a [f32] },
+    Density(&'a [f32]),
+}
+
 /// The rows `indices` of a row-major matrix of `width` columns.
-fn gather_rows(data: &[f32], width: usize, indices: &[usize]) -> Vec<f32> {
+pub fn gather_rows(data: &[f32], width: usize, indices: &[usize]) -> Vec<f32> {
     let mut out = vec![0.0; indices.len() * width];
     out.par_chunks_mut(width * 1024).zip(indices.par_chunks(1024)).for_each(|(out, idx)| {
         for (o, &i) in out.chunks_exact_mut(width).zip(idx) {
@@ -404,7 +481,7 @@ fn sigmoid(x: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use lucid_scene::sampling::Rng;
 
@@ -434,9 +511,12 @@ mod tests {
     }
 
     fn case(seed: u64) -> Case {
+        case_of(seed, 9)
+    }
+
+    fn case_of(seed: u64, s: usize) -> Case {
         let layout = tiny_config().layout();
         let mut rng = Rng::new(seed, 0);
-        let s = 9;
         let pos: Vec<f32> = (0..3 * s).map(|_| rng.uniform()).collect();
         let dir: Vec<f32> = (0..s)
             .flat_map(|_| {
@@ -472,6 +552,29 @@ mod tests {
             assert_eq!(sigma[i], a[4 * i]);
             assert!(a[4 * i] > 0.0 && (0.0..=1.0).contains(&a[4 * i + 1]));
         }
+    }
+
+    /// The forward from the density's saved activations repeats the whole forward exactly:
+    /// the same outputs and the same saved rows for the backward.
+    #[test]
+    fn forward_from_the_density_activations_is_the_forward() {
+        // Over two chunks and a part.
+        let c = case_of(5, 2 * CHUNK + 37);
+        let s = c.pos.len() / 3;
+        let stride = c.layout.saved_per_sample();
+        let (mut a, mut b) = (vec![0.0; 4 * s], vec![0.0; 4 * s]);
+        let (mut saved_a, mut saved_b) = (vec![0.0; s * stride], vec![0.0; s * stride]);
+        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut a, Some(&mut saved_a));
+        let mut sigma = vec![0.0; s];
+        let mut density = vec![0.0; s * c.layout.density_width()];
+        c.layout.density_saving(&c.pos, &c.table, &c.mlp, &mut sigma, &mut density);
+        c.layout.forward_from_density(&density, &c.dir, &c.mlp, &mut b, Some(&mut saved_b));
+        assert_eq!(a, b);
+        assert_eq!(saved_a, saved_b);
+        assert!((0..s).all(|i| sigma[i] == a[4 * i]));
+        let mut unsaved = vec![0.0; 4 * s];
+        c.layout.forward_from_density(&density, &c.dir, &c.mlp, &mut unsaved, None);
+        assert_eq!(a, unsaved);
     }
 
     #[test]

@@ -1,12 +1,11 @@
-//! From camera rays to a packed batch of samples: marching in parallel, then packing ray
-//! after ray with positions normalised to the scene box.
-
-use glam::Vec3;
-use rayon::prelude::*;
+//! From camera rays to a packed training batch of samples: marched in rounds up to where
+//! each ray stops, packed ray after ray with positions normalised to the scene box.
 
 use super::composite::{PackedSamples, RayAccumulator};
-use super::march::RayMarcher;
+use super::march::{MarchState, RayMarcher};
+use super::rounds::{march_round, samples_per_ray};
 use crate::occupancy::OccupancyGrid;
+use glam::Vec3;
 
 /// Samples of a set of rays, ready for the field and the compositing.
 #[derive(Clone, Debug, Default)]
@@ -17,102 +16,110 @@ pub struct SampleBatch {
     pub positions: Vec<f32>,
     /// Unit ray direction of each sample (`S×3`).
     pub directions: Vec<f32>,
+    /// Where [`march_to_termination`] evaluated each sample's density: its index among all the
+    /// positions passed to `density`, call after call.
+    pub evaluated: Vec<u32>,
 }
 
-/// Rays per parallel task.
-const CHUNK: usize = 256;
+/// Samples per round of [`march_to_termination`]: see [`super::rounds`]. A ray gets
+/// `ROUND_SAMPLES / live` samples per round, so a few while most rays live and more as they
+/// stop.
+const ROUND_SAMPLES: usize = 1 << 14;
 
-/// Marches `rays` (`(origin, unit direction)`) with the jitter `jitter(i)` for ray `i`, with
-/// samples over empty space where `sample_empty(i)` (see [`super::march::MarchState`]).
-/// With `budget`, rays are dropped from the end until the samples fit; returns the batch and
-/// the number of rays kept.
-pub fn march_rays(
+/// How far a ray of [`march_to_termination`] has got.
+#[derive(Default)]
+struct RayTrack {
+    t: Vec<f32>,
+    dt: Vec<f32>,
+    positions: Vec<f32>,
+    evaluated: Vec<u32>,
+    ray: RayAccumulator,
+}
+
+/// Marches `rays` (`(origin, unit direction)`, jittered by `jitter(i)`, with samples over
+/// empty space where `sample_empty(i)`, see [`super::march::MarchState`]) in rounds, and cuts
+/// each after the sample where its transmittance, from `density` (positions `S×3` in the box
+/// → `σ` per sample), falls below `min_transmittance`: compositing gives the samples behind
+/// it no weight and no gradient, yet the field would be evaluated and differentiated on them
+/// (over half of a trophy batch once the surfaces are learned). Keeps whole rays, first to
+/// last, while their samples fit `budget`; a ray that can no longer fit is not marched on.
+/// Returns the batch and the number of rays kept; the batch says where each of its samples
+/// was evaluated, so that whatever `density` computed on the way can be reused.
+#[allow(clippy::too_many_arguments)]
+pub fn march_to_termination(
     rays: &[(Vec3, Vec3)],
-    jitter: impl Fn(usize) -> f32 + Sync,
-    sample_empty: impl Fn(usize) -> bool + Sync,
+    jitter: impl Fn(usize) -> f32,
+    sample_empty: impl Fn(usize) -> bool,
     marcher: &RayMarcher,
     grid: &OccupancyGrid,
-    budget: Option<usize>,
-) -> (SampleBatch, usize) {
-    let parts: Vec<(Vec<u32>, Vec<f32>, Vec<f32>)> = rays
-        .par_chunks(CHUNK)
-        .enumerate()
-        .map(|(c, chunk)| {
-            let (mut counts, mut t, mut dt) = (Vec::with_capacity(chunk.len()), Vec::new(), Vec::new());
-            for (i, &(o, d)) in chunk.iter().enumerate() {
-                let before = t.len();
-                let k = c * CHUNK + i;
-                marcher.march(o, d, grid, jitter(k), sample_empty(k), &mut t, &mut dt);
-                counts.push((t.len() - before) as u32);
-            }
-            (counts, t, dt)
-        })
-        .collect();
-    let (lo, hi) = grid.bounds();
-    let inv_size = (hi - lo).recip();
-    let mut batch =
-        SampleBatch { samples: PackedSamples { offsets: vec![0], ..Default::default() }, ..Default::default() };
-    let mut kept = 0;
-    'outer: for (c, (counts, t, dt)) in parts.into_iter().enumerate() {
-        let mut at = 0;
-        for (i, &n) in counts.iter().enumerate() {
-            let n = n as usize;
-            if budget.is_some_and(|b| batch.samples.t.len() + n > b) {
-                break 'outer;
-            }
-            let (o, d) = rays[c * CHUNK + i];
-            for &ts in &t[at..at + n] {
-                batch.positions.extend(box_position(marcher.to_model(o + ts * d), lo, inv_size).to_array());
-                batch.directions.extend(d.to_array());
-            }
-            batch.samples.t.extend_from_slice(&t[at..at + n]);
-            batch.samples.dt.extend_from_slice(&dt[at..at + n]);
-            batch.samples.offsets.push(batch.samples.t.len() as u32);
-            at += n;
-            kept += 1;
-        }
-    }
-    (batch, kept)
-}
-
-/// Cuts each ray of `batch` after the sample where its transmittance, from the densities
-/// `sigma` (one per sample), falls below `min_transmittance`: compositing gives the samples
-/// behind it no weight and no gradient, yet the field would be evaluated and differentiated
-/// on them (over half of a trophy batch once the surfaces are learned). Then keeps whole rays,
-/// first to last, while their samples fit `budget`. Returns the cut batch and its ray count.
-pub fn cut_at_termination(
-    batch: SampleBatch,
-    sigma: &[f32],
+    mut density: impl FnMut(&[f32]) -> Vec<f32>,
     min_transmittance: f32,
     budget: usize,
 ) -> (SampleBatch, usize) {
-    let samples = &batch.samples;
-    assert_eq!(sigma.len(), samples.samples(), "one density per sample");
-    let mut cut =
-        SampleBatch { samples: PackedSamples { offsets: vec![0], ..Default::default() }, ..Default::default() };
-    let mut kept = 0;
-    for r in 0..samples.rays() {
-        let (start, end) = (samples.offsets[r] as usize, samples.offsets[r + 1] as usize);
-        let mut ray = RayAccumulator::default();
-        let mut stop = end;
-        for (s, &density) in sigma.iter().enumerate().take(end).skip(start) {
-            // Colour does not change where the ray stops.
-            if !ray.add(&[density, 0.0, 0.0, 0.0], samples.t[s], samples.dt[s], min_transmittance) {
-                stop = s + 1;
-                break;
+    let mut tracks: Vec<RayTrack> = rays.iter().map(|_| RayTrack::default()).collect();
+    let mut live: Vec<(usize, MarchState)> = rays
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &(o, d))| {
+            let mut state = marcher.start(o, d, grid, jitter(i))?;
+            state.sample_empty = sample_empty(i);
+            Some((i, state))
+        })
+        .collect();
+    // Rays from `end` on do not fit the budget.
+    let mut end = rays.len();
+    let mut evaluated = 0;
+    while !live.is_empty() {
+        let per_ray = samples_per_ray(ROUND_SAMPLES, live.len());
+        let round = march_round(rays, &mut live, per_ray, marcher, grid);
+        let positions = round.positions();
+        let sigma = if round.samples == 0 { Vec::new() } else { density(&positions) };
+        assert_eq!(sigma.len(), round.samples, "one density per sample");
+        let mut going = vec![false; live.len()];
+        round.for_each_ray(|rank, t, dt, at, more| {
+            let track = &mut tracks[live[rank].0];
+            let mut stop = t.len();
+            going[rank] = more;
+            for j in 0..t.len() {
+                // Colour does not change where the ray stops.
+                if !track.ray.add(&[sigma[at + j], 0.0, 0.0, 0.0], t[j], dt[j], min_transmittance) {
+                    (stop, going[rank]) = (j + 1, false);
+                    break;
+                }
             }
-        }
-        if cut.samples.t.len() + (stop - start) > budget {
-            break;
-        }
-        cut.samples.t.extend_from_slice(&samples.t[start..stop]);
-        cut.samples.dt.extend_from_slice(&samples.dt[start..stop]);
-        cut.positions.extend_from_slice(&batch.positions[3 * start..3 * stop]);
-        cut.directions.extend_from_slice(&batch.directions[3 * start..3 * stop]);
-        cut.samples.offsets.push(cut.samples.t.len() as u32);
-        kept += 1;
+            track.t.extend_from_slice(&t[..stop]);
+            track.dt.extend_from_slice(&dt[..stop]);
+            track.positions.extend_from_slice(&positions[3 * at..3 * (at + stop)]);
+            track.evaluated.extend((evaluated + at..evaluated + at + stop).map(|i| i as u32));
+        });
+        evaluated += round.samples;
+        let mut total = 0;
+        end = tracks[..end]
+            .iter()
+            .position(|r| {
+                total += r.t.len();
+                total > budget
+            })
+            .unwrap_or(end);
+        let mut rank = 0;
+        live.retain(|&(ray, _)| {
+            rank += 1;
+            going[rank - 1] && ray < end
+        });
     }
-    (cut, kept)
+    let mut batch =
+        SampleBatch { samples: PackedSamples { offsets: vec![0], ..Default::default() }, ..Default::default() };
+    for (track, &(_, d)) in tracks[..end].iter().zip(rays) {
+        batch.samples.t.extend_from_slice(&track.t);
+        batch.samples.dt.extend_from_slice(&track.dt);
+        batch.positions.extend_from_slice(&track.positions);
+        batch.evaluated.extend_from_slice(&track.evaluated);
+        for _ in &track.t {
+            batch.directions.extend(d.to_array());
+        }
+        batch.samples.offsets.push(batch.samples.t.len() as u32);
+    }
+    (batch, end)
 }
 
 /// A point of the grid's space (the world, or contracted) in `[0,1]³` coordinates of the box
@@ -126,55 +133,139 @@ pub fn box_position(model: Vec3, lo: Vec3, inv_size: Vec3) -> Vec3 {
 mod tests {
     use super::*;
     use crate::render::composite::{RAY_OUTPUTS, composite_forward};
+    use crate::render::march::MarchSettings;
+    use lucid_scene::sampling::Rng;
 
-    /// Three rays: one through an opaque wall at its third sample, one through thin haze that
-    /// never stops it, one stopped at its first sample.
-    fn batch() -> (SampleBatch, Vec<f32>) {
-        let counts = [6, 4, 3];
-        let sigma = [vec![0.0, 1.0, 500.0, 500.0, 3.0, 0.0], vec![0.5; 4], vec![1e4, 2.0, 2.0]].concat();
-        let mut b =
-            SampleBatch { samples: PackedSamples { offsets: vec![0], ..Default::default() }, ..Default::default() };
-        for (r, &n) in counts.iter().enumerate() {
-            for i in 0..n {
-                b.samples.t.push(0.1 * (i + 1) as f32);
-                b.samples.dt.push(0.1);
-                b.positions.extend([r as f32, i as f32, 0.5]);
-                b.directions.extend([0.0, 0.0, 1.0]);
-            }
-            b.samples.offsets.push(b.samples.t.len() as u32);
-        }
-        (b, sigma)
-    }
-
-    #[test]
-    fn rays_are_cut_after_the_sample_that_stops_them_and_composite_the_same() {
-        let (b, sigma) = batch();
-        let min_t = 1e-4;
-        let (cut, kept) = cut_at_termination(b.clone(), &sigma, min_t, usize::MAX);
-        assert_eq!(kept, 3);
-        // exp(-500·0.1) < 1e-4 at the third sample; the haze ray keeps all 4; exp(-1e3) at once.
-        assert_eq!(cut.samples.offsets, vec![0, 3, 7, 8]);
-        assert_eq!(cut.positions[..9], b.positions[..9]);
-        assert_eq!(cut.positions[9..21], b.positions[18..30]);
-        assert_eq!(cut.positions[21..24], b.positions[30..33]);
-        let raw = |batch: &SampleBatch, sigma: &[f32]| -> Vec<f32> {
-            (0..batch.samples.samples()).flat_map(|s| [sigma[s], 0.2, batch.positions[3 * s + 1] * 0.1, 0.7]).collect()
+    /// A 40³ grid over `[-1,1]³` occupied in a ball of radius 0.5, a marcher over it, and a
+    /// density in box coordinates: a hard shell (σ = 400) between radii 0.3 and 0.35 around
+    /// the centre, thin haze (σ = 0.5) elsewhere.
+    fn scene() -> (OccupancyGrid, RayMarcher, impl Fn(&[f32]) -> Vec<f32>) {
+        let mut grid = OccupancyGrid::new(40, Vec3::splat(-1.0), Vec3::splat(1.0));
+        let obs: Vec<(u32, f32)> = (0..grid.cells())
+            .map(|i| {
+                let (lo, hi) = grid.cell_bounds(i);
+                (i as u32, if ((lo + hi) * 0.5).length() < 0.5 { 1.0 } else { 0.0 })
+            })
+            .collect();
+        grid.update(&obs, 0.0, 0.01);
+        let marcher = RayMarcher::new(&MarchSettings::default(), 2.0 * 3f32.sqrt(), 0.002, 40);
+        let density = |p: &[f32]| {
+            p.chunks_exact(3)
+                .map(|q| {
+                    let r = (2.0 * Vec3::from_slice(q) - Vec3::ONE).length();
+                    if (0.3..0.35).contains(&r) { 400.0 } else { 0.5 }
+                })
+                .collect()
         };
-        let cut_sigma: Vec<f32> = [&sigma[..3], &sigma[6..10], &sigma[10..11]].concat();
-        let mut full = vec![0.0; 3 * RAY_OUTPUTS];
-        let mut short = vec![0.0; 3 * RAY_OUTPUTS];
-        composite_forward(&b.samples, &raw(&b, &sigma), min_t, &mut full);
-        composite_forward(&cut.samples, &raw(&cut, &cut_sigma), min_t, &mut short);
-        assert_eq!(full, short, "the cut samples had no weight");
+        (grid, marcher, density)
+    }
+
+    fn rays(n: usize) -> Vec<(Vec3, Vec3)> {
+        let mut rng = Rng::new(5, 0);
+        (0..n)
+            .map(|_| {
+                let o = Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 3.0);
+                (o, (Vec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, 0.0) * 0.8 - o).normalize())
+            })
+            .collect()
+    }
+
+    /// Whole rays marched at once, then cut where the density stops them: the reference.
+    fn whole_rays(rays: &[(Vec3, Vec3)], grid: &OccupancyGrid, marcher: &RayMarcher, min_t: f32) -> Vec<Vec<f32>> {
+        let (_, _, density) = scene();
+        let (lo, hi) = grid.bounds();
+        rays.iter()
+            .enumerate()
+            .map(|(i, &(o, d))| {
+                let (mut t, mut dt) = (Vec::new(), Vec::new());
+                marcher.march(o, d, grid, 0.1 * (i % 10) as f32, i % 3 == 0, &mut t, &mut dt);
+                let pos: Vec<f32> =
+                    t.iter().flat_map(|&s| box_position(o + s * d, lo, (hi - lo).recip()).to_array()).collect();
+                let sigma = density(&pos);
+                let mut acc = RayAccumulator::default();
+                let stop = (0..t.len()).position(|j| !acc.add(&[sigma[j], 0.0, 0.0, 0.0], t[j], dt[j], min_t));
+                t.truncate(stop.map_or(t.len(), |j| j + 1));
+                t
+            })
+            .collect()
+    }
+
+    /// The rays marched to termination with the jitter and empty-space choices of
+    /// [`whole_rays`].
+    fn march(
+        rays: &[(Vec3, Vec3)],
+        grid: &OccupancyGrid,
+        marcher: &RayMarcher,
+        density: impl FnMut(&[f32]) -> Vec<f32>,
+        min_t: f32,
+        budget: usize,
+    ) -> (SampleBatch, usize) {
+        march_to_termination(rays, |i| 0.1 * (i % 10) as f32, |i| i % 3 == 0, marcher, grid, density, min_t, budget)
     }
 
     #[test]
-    fn whole_rays_are_kept_while_they_fit_the_budget() {
-        let (b, sigma) = batch();
-        // 3 + 4 samples fit 7; the third ray's one sample would not.
-        let (cut, kept) = cut_at_termination(b.clone(), &sigma, 1e-4, 7);
-        assert_eq!((kept, cut.samples.offsets.clone()), (2, vec![0, 3, 7]));
-        let (cut, kept) = cut_at_termination(b, &sigma, 1e-4, 2);
-        assert_eq!((kept, cut.samples.samples(), cut.positions.len()), (0, 0, 0));
+    fn rays_marched_in_rounds_stop_where_whole_rays_are_cut_and_composite_the_same() {
+        let (grid, marcher, density) = scene();
+        let rays = rays(300);
+        let min_t = 1e-4;
+        let reference = whole_rays(&rays, &grid, &marcher, min_t);
+        let (batch, kept) = march(&rays, &grid, &marcher, &density, min_t, usize::MAX);
+        assert_eq!(kept, rays.len());
+        let mut all_positions = Vec::new();
+        let record = |p: &[f32]| {
+            all_positions.extend_from_slice(p);
+            density(p)
+        };
+        march(&rays, &grid, &marcher, record, min_t, usize::MAX);
+        for (s, &e) in batch.evaluated.iter().enumerate() {
+            assert_eq!(batch.positions[3 * s..3 * s + 3], all_positions[3 * e as usize..3 * e as usize + 3]);
+        }
+        let mut cut_short = 0;
+        for (r, want) in reference.iter().enumerate() {
+            let (a, b) = (batch.samples.offsets[r] as usize, batch.samples.offsets[r + 1] as usize);
+            assert_eq!(&batch.samples.t[a..b], &want[..], "ray {r}");
+            assert!(batch.directions[3 * a..3 * b].chunks(3).all(|d| d == rays[r].1.to_array()));
+            let mut full = (Vec::new(), Vec::new());
+            let (o, d) = rays[r];
+            marcher.march(o, d, &grid, 0.1 * (r % 10) as f32, r % 3 == 0, &mut full.0, &mut full.1);
+            cut_short += (full.0.len() > want.len()) as usize;
+        }
+        assert!(cut_short > 100, "the shell stops many rays ({cut_short} of 300)");
+        // The samples cut away had no weight: compositing the cut rays gives the whole rays'
+        // colour, opacity and depth.
+        let raw = |positions: &[f32]| -> Vec<f32> {
+            let sigma = density(positions);
+            sigma.iter().zip(positions.chunks(3)).flat_map(|(&s, p)| [s, p[0], p[1], p[2]]).collect()
+        };
+        let mut whole =
+            SampleBatch { samples: PackedSamples { offsets: vec![0], ..Default::default() }, ..Default::default() };
+        let (lo, hi) = grid.bounds();
+        for (r, &(o, d)) in rays.iter().enumerate() {
+            let (mut t, mut dt) = (Vec::new(), Vec::new());
+            marcher.march(o, d, &grid, 0.1 * (r % 10) as f32, r % 3 == 0, &mut t, &mut dt);
+            whole.positions.extend(t.iter().flat_map(|&s| box_position(o + s * d, lo, (hi - lo).recip()).to_array()));
+            whole.samples.t.extend(t);
+            whole.samples.dt.extend(dt);
+            whole.samples.offsets.push(whole.samples.t.len() as u32);
+        }
+        let mut full = vec![0.0; rays.len() * RAY_OUTPUTS];
+        let mut short = vec![0.0; rays.len() * RAY_OUTPUTS];
+        composite_forward(&whole.samples, &raw(&whole.positions), min_t, &mut full);
+        composite_forward(&batch.samples, &raw(&batch.positions), min_t, &mut short);
+        assert_eq!(full, short);
+    }
+
+    #[test]
+    fn whole_rays_are_kept_first_to_last_while_they_fit_the_budget() {
+        let (grid, marcher, density) = scene();
+        let rays = rays(50);
+        let reference = whole_rays(&rays, &grid, &marcher, 1e-4);
+        let budget = reference[..20].iter().map(Vec::len).sum::<usize>() + reference[20].len() - 1;
+        let (batch, kept) = march(&rays, &grid, &marcher, &density, 1e-4, budget);
+        assert!(reference[20].len() > 1, "ray 20 has samples");
+        assert_eq!(kept, 20, "ray 20 is one sample over the budget");
+        assert_eq!(batch.samples.rays(), 20);
+        assert_eq!(batch.samples.t, reference[..20].concat());
+        assert_eq!(batch.positions.len(), 3 * batch.samples.samples());
     }
 }

@@ -4,4 +4,5 @@
 pub mod batch;
 pub mod composite;
 pub mod march;
+pub mod rounds;
 pub mod view;
