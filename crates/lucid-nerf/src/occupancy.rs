@@ -217,6 +217,21 @@ impl OccupancyGrid {
     }
 }
 
+/// A grid of `resolution`³ cells over `[-1,1]³`, occupied exactly where `inside` holds at
+/// the cell's centre: the marching and rendering tests' scenes.
+#[cfg(test)]
+pub(crate) fn grid_occupied_where(resolution: u32, inside: impl Fn(Vec3) -> bool) -> OccupancyGrid {
+    let mut grid = OccupancyGrid::new(resolution, Vec3::splat(-1.0), Vec3::splat(1.0));
+    let obs: Vec<(u32, f32)> = (0..grid.cells())
+        .map(|i| {
+            let (lo, hi) = grid.cell_bounds(i);
+            (i as u32, if inside((lo + hi) * 0.5) { 1.0 } else { 0.0 })
+        })
+        .collect();
+    grid.update(&obs, 0.0, 0.01);
+    grid
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -465,7 +465,7 @@ enum FieldInput<'a> {
 }
 
 /// The rows `indices` of a row-major matrix of `width` columns.
-pub fn gather_rows(data: &[f32], width: usize, indices: &[usize]) -> Vec<f32> {
+fn gather_rows(data: &[f32], width: usize, indices: &[usize]) -> Vec<f32> {
     let mut out = vec![0.0; indices.len() * width];
     out.par_chunks_mut(width * 1024).zip(indices.par_chunks(1024)).for_each(|(out, idx)| {
         for (o, &i) in out.chunks_exact_mut(width).zip(idx) {

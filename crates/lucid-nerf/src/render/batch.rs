@@ -140,14 +140,7 @@ mod tests {
     /// density in box coordinates: a hard shell (σ = 400) between radii 0.3 and 0.35 around
     /// the centre, thin haze (σ = 0.5) elsewhere.
     fn scene() -> (OccupancyGrid, RayMarcher, impl Fn(&[f32]) -> Vec<f32>) {
-        let mut grid = OccupancyGrid::new(40, Vec3::splat(-1.0), Vec3::splat(1.0));
-        let obs: Vec<(u32, f32)> = (0..grid.cells())
-            .map(|i| {
-                let (lo, hi) = grid.cell_bounds(i);
-                (i as u32, if ((lo + hi) * 0.5).length() < 0.5 { 1.0 } else { 0.0 })
-            })
-            .collect();
-        grid.update(&obs, 0.0, 0.01);
+        let grid = crate::occupancy::grid_occupied_where(40, |c| c.length() < 0.5);
         let marcher = RayMarcher::new(&MarchSettings::default(), 2.0 * 3f32.sqrt(), 0.002, 40);
         let density = |p: &[f32]| {
             p.chunks_exact(3)

@@ -346,6 +346,7 @@ fn cell_exit(origin: Vec3, inv: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::occupancy::grid_occupied_where;
     use lucid_scene::sampling::Rng;
 
     /// At 8³ the grid is one block; at 40³ most blocks around the ball are empty and crossed
@@ -358,15 +359,8 @@ mod tests {
     }
 
     fn samples_cover_occupied_cells(resolution: u32, radius: f32) {
-        let mut grid = OccupancyGrid::new(resolution, Vec3::splat(-1.0), Vec3::splat(1.0));
         // Occupy only the cells whose centre is within `radius` of the origin.
-        let obs: Vec<(u32, f32)> = (0..grid.cells())
-            .map(|i| {
-                let (lo, hi) = grid.cell_bounds(i);
-                (i as u32, if ((lo + hi) * 0.5).length() < radius { 1.0 } else { 0.0 })
-            })
-            .collect();
-        grid.update(&obs, 0.0, 0.01);
+        let grid = grid_occupied_where(resolution, |c| c.length() < radius);
         let marcher = RayMarcher::new(
             &MarchSettings { cone_angle: 0.0, ..Default::default() },
             2.0 * 3f32.sqrt(),
@@ -408,16 +402,9 @@ mod tests {
     /// covering the ray's whole chord through the box.
     #[test]
     fn empty_space_samples_cover_the_stretches_between_occupied_ones() {
-        let mut grid = OccupancyGrid::new(40, Vec3::splat(-1.0), Vec3::splat(1.0));
-        let obs: Vec<(u32, f32)> = (0..grid.cells())
-            .map(|i| {
-                let (lo, hi) = grid.cell_bounds(i);
-                let c = (lo + hi) * 0.5;
-                let inside = (c - Vec3::new(0.3, 0.0, 0.0)).length() < 0.25 || (c + Vec3::splat(0.4)).length() < 0.2;
-                (i as u32, if inside { 1.0 } else { 0.0 })
-            })
-            .collect();
-        grid.update(&obs, 0.0, 0.01);
+        let grid = grid_occupied_where(40, |c| {
+            (c - Vec3::new(0.3, 0.0, 0.0)).length() < 0.25 || (c + Vec3::splat(0.4)).length() < 0.2
+        });
         let diagonal = 2.0 * 3f32.sqrt();
         let marcher = RayMarcher::new(&MarchSettings::default(), diagonal, 0.002, 40);
         let span = EMPTY_SPAN * diagonal;

@@ -192,14 +192,7 @@ mod tests {
             mlp: Param::from_tensor(Tensor::from_data(TensorData::new(mlp, [layout.mlp_params()]), &device)),
         };
         // Occupied in a ball, so rays start, jump and end at different places.
-        let mut grid = OccupancyGrid::new(16, Vec3::splat(-1.0), Vec3::splat(1.0));
-        let obs: Vec<(u32, f32)> = (0..grid.cells())
-            .map(|i| {
-                let (lo, hi) = grid.cell_bounds(i);
-                (i as u32, if ((lo + hi) * 0.5).length() < 0.8 { 1.0 } else { 0.0 })
-            })
-            .collect();
-        grid.update(&obs, 0.0, 0.01);
+        let grid = crate::occupancy::grid_occupied_where(16, |c| c.length() < 0.8);
         let marcher = RayMarcher::new(&MarchSettings::default(), 2.0 * 3f32.sqrt(), 0.01, 16);
         let renderer = ViewRenderer {
             model: &model,
