@@ -7,14 +7,13 @@
 //! `min(threshold, mean)`, the mean keeping a mostly transparent early field from culling
 //! everything.
 //!
-//! A second, coarse bitfield marks blocks of [`BLOCK`]³ cells holding any occupied cell, so
-//! that a marching ray crosses an empty block in one jump rather than cell by cell (rays that
-//! miss the object crossed up to a few hundred empty cells, a third of a view's render).
+//! Coarser flags mark the aligned regions of 2³, 4³, 8³, … cells holding any occupied cell (a
+//! mip pyramid of the bitfield), so that a marching ray crosses the largest empty region
+//! around it in one jump rather than cell by cell. Rays crossing a few hundred empty cells
+//! were a third of a view's render; with one level of 8³ blocks, the jumps still outnumbered
+//! the samples 3.7 to 1 on a trophy view.
 
 use glam::{UVec3, Vec3};
-
-/// Cells per side of a block of the coarse bitfield.
-pub const BLOCK: u32 = 8;
 
 /// The grid over an axis-aligned box.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,8 +23,11 @@ pub struct OccupancyGrid {
     max: Vec3,
     thickness: Vec<f32>,
     bits: Vec<u64>,
-    /// Derived from `bits`: one flag per block, true where some cell of it is occupied.
-    blocks: Vec<bool>,
+    /// `resolution / (max − min)`.
+    cells_per_unit: Vec3,
+    /// Derived from `bits`: level `k − 1` holds one flag per aligned region of `2^k` cells a
+    /// side (cut at the grid's edge), true where some cell of it is occupied.
+    mips: Vec<Vec<bool>>,
 }
 
 impl OccupancyGrid {
@@ -35,37 +37,57 @@ impl OccupancyGrid {
         assert!(max.cmpgt(min).all(), "the box must have positive size");
         let cells = (resolution as usize).pow(3);
         let bits = vec![u64::MAX; cells.div_ceil(64)];
-        let mut grid = Self { resolution, min, max, thickness: vec![0.0; cells], bits, blocks: Vec::new() };
-        grid.rebuild_blocks();
+        let mut grid = Self {
+            resolution,
+            min,
+            max,
+            thickness: vec![0.0; cells],
+            bits,
+            cells_per_unit: resolution as f32 / (max - min),
+            mips: Vec::new(),
+        };
+        grid.rebuild_mips();
         grid
     }
 
-    /// Blocks per axis.
-    fn blocks_per_axis(&self) -> u32 {
-        self.resolution.div_ceil(BLOCK)
-    }
-
-    /// The index of the block holding the cell at `c`.
+    /// Regions per axis at mip level `k` (regions of `2^k` cells a side).
     #[inline]
-    fn block_index(&self, c: UVec3) -> usize {
-        let (b, k) = (self.blocks_per_axis(), c / BLOCK);
-        ((k.z * b + k.y) * b + k.x) as usize
+    fn regions_per_axis(&self, k: u32) -> u32 {
+        self.resolution.div_ceil(1 << k)
     }
 
-    fn rebuild_blocks(&mut self) {
+    /// The index at mip level `k` of the region holding the cell at `c`.
+    #[inline]
+    fn region_index(&self, k: u32, c: UVec3) -> usize {
+        let (n, q) = (self.regions_per_axis(k), c >> k);
+        ((q.z * n + q.y) * n + q.x) as usize
+    }
+
+    /// Levels up to the one whose single region covers the grid.
+    fn rebuild_mips(&mut self) {
         let r = self.resolution;
-        let mut blocks = vec![false; (self.blocks_per_axis() as usize).pow(3)];
-        for z in 0..r {
-            for y in 0..r {
-                for x in 0..r {
-                    let c = UVec3::new(x, y, z);
-                    if self.is_occupied(self.index(c)) {
-                        blocks[self.block_index(c)] = true;
+        let mut mips: Vec<Vec<bool>> = Vec::new();
+        let mut k = 1;
+        while (1u32 << (k - 1)) < r {
+            let n = self.regions_per_axis(k) as usize;
+            let mut level = vec![false; n.pow(3)];
+            // Each level from the one below it (the first from the cells): 8 children a region.
+            let below = if k == 1 { r as usize } else { self.regions_per_axis(k - 1) as usize };
+            for z in 0..below {
+                for y in 0..below {
+                    for x in 0..below {
+                        let child = (z * below + y) * below + x;
+                        let occupied = if k == 1 { self.is_occupied(child) } else { mips[k as usize - 2][child] };
+                        if occupied {
+                            level[((z / 2) * n + y / 2) * n + x / 2] = true;
+                        }
                     }
                 }
             }
+            mips.push(level);
+            k += 1;
         }
-        self.blocks = blocks;
+        self.mips = mips;
     }
 
     /// Cells per axis.
@@ -97,12 +119,16 @@ impl OccupancyGrid {
     /// Integer coordinates of the cell containing world point `p`, or `None` outside the box.
     #[inline]
     pub fn coords_at(&self, p: Vec3) -> Option<UVec3> {
-        let u = (p - self.min) / (self.max - self.min);
-        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::ONE).any() {
+        // A multiplication by the cells per unit length rather than a division by the box's
+        // size: this runs for every sample and jump of every marched ray. (Tested in cell
+        // units after the subtraction, so that a point rounded a hair past a face, as a ray's
+        // first sample at the box's entry can be, is still inside.)
+        let r = self.resolution;
+        let u = (p - self.min) * self.cells_per_unit;
+        if u.cmplt(Vec3::ZERO).any() || u.cmpgt(Vec3::splat(r as f32)).any() {
             return None;
         }
-        let r = self.resolution;
-        Some((u * r as f32).as_uvec3().min(UVec3::splat(r - 1)))
+        Some(u.as_uvec3().min(UVec3::splat(r - 1)))
     }
 
     /// The index of the cell at integer coordinates `c`.
@@ -131,16 +157,20 @@ impl OccupancyGrid {
         (lo, lo + self.cell_size())
     }
 
-    /// The empty space around the empty cell at `c` that a ray may cross in one jump: its
-    /// whole block where no cell of that is occupied, else the cell. The block is clipped to
-    /// the grid.
+    /// The empty space around the empty cell at `c` that a ray may cross in one jump: the
+    /// largest aligned region of `2^k` cells a side that holds it and no occupied cell (the
+    /// cell itself where its 2³ neighbourhood is occupied), clipped to the grid.
     #[inline]
     pub fn empty_span(&self, c: UVec3) -> (Vec3, Vec3) {
-        if self.blocks[self.block_index(c)] {
+        let mut k = 0;
+        while (k as usize) < self.mips.len() && !self.mips[k as usize][self.region_index(k + 1, c)] {
+            k += 1;
+        }
+        if k == 0 {
             return self.bounds_of(c);
         }
-        let k = c / BLOCK;
-        (self.corner(k * BLOCK), self.corner((k + 1) * BLOCK).min(self.max))
+        let q = c >> k;
+        (self.corner(q << k), self.corner((q + 1) << k).min(self.max))
     }
 
     /// Integer coordinates of cell `index`.
@@ -197,7 +227,7 @@ impl OccupancyGrid {
                 self.bits[i / 64] |= 1 << (i % 64);
             }
         }
-        self.rebuild_blocks();
+        self.rebuild_mips();
     }
 
     /// A grid from its saved state (thickness per cell and bitfield words), or `None` when
@@ -205,8 +235,9 @@ impl OccupancyGrid {
     pub fn from_parts(resolution: u32, min: Vec3, max: Vec3, thickness: Vec<f32>, bits: Vec<u64>) -> Option<Self> {
         let cells = (resolution as usize).checked_pow(3)?;
         (thickness.len() == cells && bits.len() == cells.div_ceil(64)).then(|| {
-            let mut grid = Self { resolution, min, max, thickness, bits, blocks: Vec::new() };
-            grid.rebuild_blocks();
+            let cells_per_unit = resolution as f32 / (max - min);
+            let mut grid = Self { resolution, min, max, thickness, bits, cells_per_unit, mips: Vec::new() };
+            grid.rebuild_mips();
             grid
         })
     }
@@ -246,26 +277,40 @@ mod tests {
         }
         assert_eq!(g.cell_at(Vec3::new(1.5, 0.0, 0.0)), None);
         assert_eq!(g.cell_at(Vec3::splat(1.0)), Some(511), "the far faces belong to the last cells");
+        // A ray's first sample at the box's entry, rounded a hair past the face, is inside.
+        assert_eq!(g.cell_at(Vec3::new(1.000_000_1, 0.0, 0.0)), Some(7 + 8 * 4 + 64 * 4));
     }
 
-    /// An empty cell in an all-empty block spans the block (cut at the grid's edge); one in a
-    /// block holding an occupied cell spans only itself.
+    /// An empty cell spans the largest aligned empty region of 2^k cells around it (cut at the
+    /// grid's edge); one next to an occupied cell spans only itself.
     #[test]
-    fn an_empty_span_is_the_block_only_where_all_of_it_is_empty() {
+    fn an_empty_span_is_the_largest_aligned_empty_region() {
         let mut g = OccupancyGrid::new(20, Vec3::splat(-1.0), Vec3::splat(1.0));
         let occupied = UVec3::new(3, 4, 5);
         let obs = [(g.index(occupied) as u32, 1.0)];
         g.update(&obs, 0.0, 0.5);
         assert!(g.is_occupied(g.index(occupied)) && g.occupied_fraction() * 8000.0 == 1.0);
-        // The same block as the occupied cell: the cell alone.
-        let c = UVec3::new(7, 0, 1);
-        assert_eq!(g.empty_span(c), g.bounds_of(c));
-        // Another block: all of it, cells 8..16 on x, 16..20 on y (the edge), 0..8 on z.
-        let (lo, hi) = g.empty_span(UVec3::new(9, 17, 2));
         let cell = 0.1;
-        assert!((lo - Vec3::new(-1.0 + 8.0 * cell, -1.0 + 16.0 * cell, -1.0)).abs().max_element() < 1e-6);
-        assert!((hi - Vec3::new(-1.0 + 16.0 * cell, 1.0, -1.0 + 8.0 * cell)).abs().max_element() < 1e-6);
-        // Saved and restored, the blocks are derived again.
+        let corner = |c: [u32; 3]| Vec3::from_array(c.map(|v| -1.0 + v as f32 * cell).map(|v| v.min(1.0)));
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-6;
+        // In the occupied cell's 2³ region: the cell alone.
+        let c = UVec3::new(2, 5, 4);
+        assert_eq!(g.empty_span(c), g.bounds_of(c));
+        // In its 4³ region but not its 2³ one: the 2³ region (cells 0..2, 4..6, 4..6).
+        let (lo, hi) = g.empty_span(UVec3::new(1, 5, 4));
+        assert!(close(lo, corner([0, 4, 4])) && close(hi, corner([2, 6, 6])), "{lo} {hi}");
+        // In its 8³ region but not its 4³ one: the 4³ region (cells 4..8, 0..4, 4..8).
+        let (lo, hi) = g.empty_span(UVec3::new(7, 1, 6));
+        assert!(close(lo, corner([4, 0, 4])) && close(hi, corner([8, 4, 8])), "{lo} {hi}");
+        // Outside its 16³ region: the largest empty one, a 16³ region cut at the edge (cells
+        // 16..20 on x, 0..16 on y and z); past x = 16 the whole 32³ region is not empty.
+        let (lo, hi) = g.empty_span(UVec3::new(17, 9, 2));
+        assert!(close(lo, corner([16, 0, 0])) && close(hi, corner([20, 16, 16])), "{lo} {hi}");
+        // An empty grid: every cell spans the whole grid.
+        let empty = OccupancyGrid::from_parts(20, g.min, g.max, vec![0.0; 8000], vec![0; 125]).unwrap();
+        let (lo, hi) = empty.empty_span(UVec3::new(3, 4, 5));
+        assert!(close(lo, Vec3::splat(-1.0)) && close(hi, Vec3::splat(1.0)), "{lo} {hi}");
+        // Saved and restored, the levels are derived again.
         let back = OccupancyGrid::from_parts(20, g.min, g.max, g.thickness.clone(), g.bits.clone()).unwrap();
         assert_eq!(back, g);
     }

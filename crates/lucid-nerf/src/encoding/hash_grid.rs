@@ -10,6 +10,7 @@
 //! are looked up, densely where the level's `(⌈s_l⌉+2)³` vertices fit in the table, else
 //! through the spatial hash `(x·1 ⊕ y·2654435761 ⊕ z·805459861) mod T`.
 
+use lucid_scene::simd::wide;
 use rayon::prelude::*;
 
 /// Hyper-parameters of the encoding.
@@ -160,6 +161,12 @@ impl LevelLayout {
 }
 
 impl LevelLayout {
+    /// [`LevelLayout::corners`] of point `i` of `positions`, rows less `base`.
+    #[inline(always)]
+    fn corners_of(&self, positions: &[f32], i: usize, base: usize) -> [(usize, f32); 8] {
+        self.corners([positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]).map(|(r, w)| (r - base, w))
+    }
+
     /// Calls `visit(i, corners, rows)` for each point `i` of `positions` (`n×3`) in order, with its
     /// corners' rows less `base` (a level's segment of a table starts at `base`). On a large
     /// level each point's rows in `rows` are prefetched [`AHEAD`] points before `visit` gets
@@ -174,13 +181,10 @@ impl LevelLayout {
         mut visit: impl FnMut(usize, [(usize, f32); 8], &mut R),
     ) {
         let n = positions.len() / 3;
-        let corners = |i: usize| {
-            self.corners([positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]).map(|(r, w)| (r - base, w))
-        };
         let far = self.size * features * std::mem::size_of::<f32>() > PREFETCH_ABOVE_BYTES;
         let mut ring = [[(0usize, 0f32); 8]; AHEAD];
         for (i, slot) in ring.iter_mut().enumerate().take(n) {
-            *slot = corners(i);
+            *slot = self.corners_of(positions, i, base);
             if far {
                 prefetch_rows(rows.as_ref(), features, slot);
             }
@@ -188,7 +192,8 @@ impl LevelLayout {
         for i in 0..n {
             let current = ring[i % AHEAD];
             if i + AHEAD < n {
-                let next = corners(i + AHEAD);
+                // (A method, not a closure: closures were left out of `wide`'s AVX2 build.)
+                let next = self.corners_of(positions, i + AHEAD, base);
                 if far {
                     prefetch_rows(rows.as_ref(), features, &next);
                 }
@@ -280,6 +285,14 @@ impl HashGridLayout {
     /// table's cache misses overlap instead of stalling one after another (the lookups of a
     /// large level are ~all misses, and they were ~60 % of a view's render time).
     pub fn encode_chunk(&self, positions: &[f32], table: &[f32], act: &mut [f32], stride: usize) {
+        wide(
+            #[inline(always)]
+            || self.encode_chunk_in(positions, table, act, stride),
+        )
+    }
+
+    #[inline(always)]
+    fn encode_chunk_in(&self, positions: &[f32], table: &[f32], act: &mut [f32], stride: usize) {
         let f = self.features;
         let n = positions.len() / 3;
         assert!(n == 0 || act.len() >= (n - 1) * stride + self.output_dim(), "activation rows too short");
@@ -322,14 +335,19 @@ impl HashGridLayout {
         }
         segments.into_par_iter().zip(self.levels.par_iter().enumerate()).for_each(|(seg, (l, level))| {
             // Rows relative to the level's segment.
-            level.for_each_prefetched(positions, &mut { seg }, f, level.offset, |i, corners, seg| {
-                let g = &grad_out[i * width + l * f..i * width + (l + 1) * f];
-                for (row, w) in corners {
-                    for (dst, gv) in seg[row * f..(row + 1) * f].iter_mut().zip(g) {
-                        *dst += w * gv;
-                    }
-                }
-            });
+            wide(
+                #[inline(always)]
+                || {
+                    level.for_each_prefetched(positions, &mut { seg }, f, level.offset, |i, corners, seg| {
+                        let g = &grad_out[i * width + l * f..i * width + (l + 1) * f];
+                        for (row, w) in corners {
+                            for (dst, gv) in seg[row * f..(row + 1) * f].iter_mut().zip(g) {
+                                *dst += w * gv;
+                            }
+                        }
+                    })
+                },
+            );
         });
     }
 }

@@ -6,7 +6,7 @@
 pub const SH_COEFFICIENTS: usize = 16;
 
 /// Evaluates the 16 real spherical harmonics at the unit direction `d` into `out`.
-#[inline]
+#[inline(always)]
 pub fn sh_encode(d: [f32; 3], out: &mut [f32]) {
     let [x, y, z] = d;
     let (xy, xz, yz) = (x * y, x * z, y * z);

@@ -10,6 +10,7 @@
 
 pub mod mlp;
 
+use lucid_scene::simd::wide;
 use rayon::prelude::*;
 
 use crate::encoding::hash_grid::{HashGridConfig, HashGridLayout};
@@ -188,37 +189,42 @@ impl FieldLayout {
         let stride = self.stride;
         let width = self.density_width();
         let run = |c: usize, out: &mut [f32], act: &mut [f32]| {
-            let n = out.len() / 4;
-            let rows = c * CHUNK..c * CHUNK + n;
-            match input {
-                FieldInput::Positions { positions, table } => {
-                    let pos = &positions[3 * rows.start..3 * rows.end];
-                    self.grid.encode_chunk(pos, table, act, stride);
-                    self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, stride);
-                }
-                FieldInput::Density(density) => {
-                    for (row, d) in
-                        act.chunks_mut(stride).zip(density[width * rows.start..width * rows.end].chunks(width))
-                    {
-                        row[..width].copy_from_slice(d);
+            wide(
+                #[inline(always)]
+                || {
+                    let n = out.len() / 4;
+                    let rows = c * CHUNK..c * CHUNK + n;
+                    match input {
+                        FieldInput::Positions { positions, table } => {
+                            let pos = &positions[3 * rows.start..3 * rows.end];
+                            self.grid.encode_chunk(pos, table, act, stride);
+                            self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, stride);
+                        }
+                        FieldInput::Density(density) => {
+                            for (row, d) in
+                                act.chunks_mut(stride).zip(density[width * rows.start..width * rows.end].chunks(width))
+                            {
+                                row[..width].copy_from_slice(d);
+                            }
+                        }
                     }
-                }
-            }
-            let dir = &directions[3 * rows.start..3 * rows.end];
-            for i in 0..n {
-                let row = &mut act[i * stride..(i + 1) * stride];
-                let sh = &mut row[width..][..SH_COEFFICIENTS];
-                sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
-            }
-            self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n, stride);
-            for i in 0..n {
-                let row = &mut act[i * stride..(i + 1) * stride];
-                row[self.result] = row[self.colour_in].min(MAX_LOG_DENSITY).exp();
-                for c in 1..4 {
-                    row[self.result + c] = sigmoid(row[self.result + c]);
-                }
-                out[4 * i..4 * i + 4].copy_from_slice(&row[self.result..self.result + 4]);
-            }
+                    let dir = &directions[3 * rows.start..3 * rows.end];
+                    for i in 0..n {
+                        let row = &mut act[i * stride..(i + 1) * stride];
+                        let sh = &mut row[width..][..SH_COEFFICIENTS];
+                        sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
+                    }
+                    self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n, stride);
+                    for i in 0..n {
+                        let row = &mut act[i * stride..(i + 1) * stride];
+                        row[self.result] = row[self.colour_in].min(MAX_LOG_DENSITY).exp();
+                        for c in 1..4 {
+                            row[self.result + c] = sigmoid(row[self.result + c]);
+                        }
+                        out[4 * i..4 * i + 4].copy_from_slice(&row[self.result..self.result + 4]);
+                    }
+                },
+            )
         };
         match saved {
             Some(saved) => {
@@ -259,16 +265,22 @@ impl FieldLayout {
 
     /// Encoding and density MLP of one chunk, in rows of [`Self::density_width`].
     fn density_chunk(&self, pos: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], act: &mut [f32]) {
-        let (n, width) = (out.len(), self.density_width());
-        self.grid.encode_chunk(pos, table, act, width);
-        self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, width);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = act[i * width + self.colour_in].min(MAX_LOG_DENSITY).exp();
-        }
+        wide(
+            #[inline(always)]
+            || {
+                let (n, width) = (out.len(), self.density_width());
+                self.grid.encode_chunk(pos, table, act, width);
+                self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, width);
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = act[i * width + self.colour_in].min(MAX_LOG_DENSITY).exp();
+                }
+            },
+        )
     }
 
     /// Runs one MLP on `n` rows of `stride` floats: input at column `input`, layer `i`'s
     /// output at `outputs[i]`; ReLU on hidden layers, the last layer linear.
+    #[inline(always)]
     #[allow(unsafe_code, clippy::too_many_arguments)] // interleaved columns of one buffer: see the SAFETY note
     fn mlp_forward(
         &self,
@@ -339,7 +351,7 @@ impl FieldLayout {
         let s = active.len();
         let enc = self.grid.output_dim();
         let mut grad_enc = vec![0.0f32; s * enc];
-        let wide = self.widest();
+        let widest = self.widest();
         // Weight gradients are summed per fixed group of chunks, then the groups in order: the
         // same float additions whatever the thread count, so training is reproducible.
         let group = CHUNK * GROUP_CHUNKS;
@@ -348,11 +360,14 @@ impl FieldLayout {
             .zip(saved.par_chunks(group * stride).zip(grad_out.par_chunks(group * 4)))
             .map(|(genc, (act, gout))| {
                 let mut gw = vec![0.0f32; self.mlp_params()];
-                let (mut ga, mut gb) = (vec![0.0f32; CHUNK * wide], vec![0.0f32; CHUNK * wide]);
+                let (mut ga, mut gb) = (vec![0.0f32; CHUNK * widest], vec![0.0f32; CHUNK * widest]);
                 for ((genc, act), gout) in
                     genc.chunks_mut(CHUNK * enc).zip(act.chunks(CHUNK * stride)).zip(gout.chunks(CHUNK * 4))
                 {
-                    self.backward_chunk(mlp, act, gout, genc, &mut gw, &mut ga, &mut gb);
+                    wide(
+                        #[inline(always)]
+                        || self.backward_chunk(mlp, act, gout, genc, &mut gw, &mut ga, &mut gb),
+                    );
                 }
                 gw
             })
@@ -375,6 +390,7 @@ impl FieldLayout {
 
     /// One chunk of the backward pass: from `∂/∂(σ, rgb)` down to `∂/∂encoding`, adding the
     /// weight gradients to `gw`. `ga`/`gb` are scratch blocks of `CHUNK × widest` floats.
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn backward_chunk(
         &self,
@@ -415,6 +431,7 @@ impl FieldLayout {
     /// Backward through one MLP for `n` rows, adding the weight gradients to `gw`. `g` holds
     /// `∂/∂output` (rows packed at the output width); `spare` is scratch. Returns whether
     /// `∂/∂input` (packed at the input width) ended in `spare` (`true`) or in `g` (`false`).
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn mlp_backward(
         &self,

@@ -217,6 +217,7 @@ impl RayMarcher {
     /// [`RayMarcher::march`] places, so rendering in rounds changes nothing); false once the
     /// ray has left the box or has all its samples.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     pub fn advance(
         &self,
         origin: Vec3,
@@ -246,18 +247,19 @@ impl RayMarcher {
                 added += 1;
                 t += dt;
             } else if !self.is_unbounded() || p.length_squared() <= self.radius * self.radius {
-                // Jump to where the ray leaves this cell (or its block, if all of that is
-                // empty), keeping a whole number of steps so the samples stay on one lattice.
+                // Jump to where the ray leaves the largest empty region around this cell,
+                // keeping a whole number of steps so the samples stay on one lattice.
                 // (Within the contraction's ball, cells are where they are in the world; a
-                // cell or block reaching beyond it is longer in the world than in the grid,
-                // so the jump falls short of its exit, never past.)
+                // region reaching beyond it is longer in the world than in the grid, so the
+                // jump falls short of its exit, never past.)
                 let (clo, chi) = grid.empty_span(coords);
                 let exit = cell_exit(origin, inv, clo, chi);
                 let next = t + ceil((exit - t) / dt).max(1.0) * dt;
                 if state.sample_empty {
                     let from = *state.empty_from.get_or_insert(t);
                     if next - from >= self.empty_span {
-                        added += state.flush_empty(next, t_out, dt_out);
+                        // (A jump may land past the box, a step at most.)
+                        added += state.flush_empty(next.min(state.exit), t_out, dt_out);
                     }
                 }
                 t = next;

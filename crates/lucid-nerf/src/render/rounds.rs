@@ -5,6 +5,7 @@
 //! evaluate the field behind every surface, most of the work in a scene of opaque objects.
 
 use glam::Vec3;
+use lucid_scene::simd::wide;
 use rayon::prelude::*;
 
 use super::batch::box_position;
@@ -94,18 +95,23 @@ pub fn march_round(
     let parts: Vec<RoundPart> = live
         .par_chunks_mut(MARCH_CHUNK)
         .map(|chunk| {
-            let mut part = RoundPart::default();
-            for (ray, state) in chunk.iter_mut() {
-                let (o, d) = rays[*ray];
-                let before = part.t.len();
-                let more = marcher.advance(o, d, grid, state, per_ray, &mut part.t, &mut part.dt);
-                for &ts in &part.t[before..] {
-                    part.positions.extend(box_position(marcher.to_model(o + ts * d), lo, inv_size).to_array());
-                }
-                part.counts.push((part.t.len() - before) as u32);
-                part.more.push(more);
-            }
-            part
+            wide(
+                #[inline(always)]
+                || {
+                    let mut part = RoundPart::default();
+                    for (ray, state) in chunk.iter_mut() {
+                        let (o, d) = rays[*ray];
+                        let before = part.t.len();
+                        let more = marcher.advance(o, d, grid, state, per_ray, &mut part.t, &mut part.dt);
+                        for &ts in &part.t[before..] {
+                            part.positions.extend(box_position(marcher.to_model(o + ts * d), lo, inv_size).to_array());
+                        }
+                        part.counts.push((part.t.len() - before) as u32);
+                        part.more.push(more);
+                    }
+                    part
+                },
+            )
         })
         .collect();
     let samples = parts.iter().map(|p| p.t.len()).sum();
