@@ -36,18 +36,8 @@ impl OccupancyGrid {
         assert!((1..=1024).contains(&resolution), "grid resolution must be in 1..=1024");
         assert!(max.cmpgt(min).all(), "the box must have positive size");
         let cells = (resolution as usize).pow(3);
-        let bits = vec![u64::MAX; cells.div_ceil(64)];
-        let mut grid = Self {
-            resolution,
-            min,
-            max,
-            thickness: vec![0.0; cells],
-            bits,
-            cells_per_unit: resolution as f32 / (max - min),
-            mips: Vec::new(),
-        };
-        grid.rebuild_mips();
-        grid
+        Self::from_parts(resolution, min, max, vec![0.0; cells], vec![u64::MAX; cells.div_ceil(64)])
+            .expect("the parts are sized for the resolution")
     }
 
     /// Regions per axis at mip level `k` (regions of `2^k` cells a side).
