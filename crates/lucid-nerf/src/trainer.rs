@@ -202,8 +202,24 @@ impl NerfTrainer {
             scene_box(dataset)
         };
         let centre = if unbounded { Vec3::ZERO } else { (bounds.0 + bounds.1) * 0.5 };
+        let view = ViewInfo { frame: dataset.normalisation, ..ViewInfo::from_cameras(&data.cameras, centre) };
+        let grid = &mut config.field.grid;
+        if grid.finest_resolution == 0.0 {
+            // A contracted scene's cells grow with distance, so no one footprint fits it; it
+            // keeps instant-ngp's resolution.
+            grid.finest_resolution = if unbounded {
+                grid.finest()
+            } else {
+                grid.finest_for_views((bounds.1 - bounds.0).max_element(), data.pixel_angle(), view.radius)
+            };
+            let why = if unbounded { "instant-ngp's, for an unbounded scene" } else { "2.5 cells per training pixel" };
+            tracing::info!(
+                "hash grid: finest resolution {:.0} ({why}; field.grid.finest_resolution overrides it)",
+                grid.finest_resolution
+            );
+        }
         let mut trainer = Self::new(config, bounds, data.pixel_angle(), device);
-        trainer.view = ViewInfo { frame: dataset.normalisation, ..ViewInfo::from_cameras(&data.cameras, centre) };
+        trainer.view = view;
         trainer
     }
 

@@ -46,6 +46,14 @@ fn a_resumed_run_ends_where_an_uninterrupted_one_does() {
 
     let loaded = lucid_nerf::checkpoint::load(&split_dir.join("checkpoint.lucid"), &device).unwrap();
     assert_eq!(loaded.trainer.step, 6);
+    // The finest resolution the views chose (left at 0 in the configuration) is the one the
+    // checkpoint keeps, so the resumed run and every render use the same levels.
+    let (lo, hi) = lucid_nerf::data::scene_box(&dataset);
+    let radius = lucid_nerf::data::ViewInfo::from_cameras(&data.cameras, (lo + hi) * 0.5).radius;
+    let chosen = config.field.grid.finest_for_views((hi - lo).max_element(), data.pixel_angle(), radius);
+    assert!(chosen > config.field.grid.base_resolution && chosen != config.field.grid.finest(), "{chosen}");
+    assert_eq!(loaded.header.config.field.grid.finest_resolution, chosen);
+    assert_eq!(loaded.trainer.config.field.grid.finest_resolution, chosen);
     let mut resumed = NerfRun { trainer: loaded.trainer, data: &data, held_out: None };
     let options = RunOptions { elapsed: loaded.header.elapsed, resumed: true, ..options(&split_dir, None) };
     run(&mut resumed, &options, &mut NoObserver).unwrap();

@@ -25,32 +25,64 @@ pub struct HashGridConfig {
     pub log2_table_size: u32,
     /// Resolution of the coarsest level `N_min`.
     pub base_resolution: f32,
-    /// Resolution of the finest level `N_max`.
+    /// Resolution of the finest level `N_max` across the scene box's longest side; 0 lets
+    /// the trainer choose it from the training views ([`HashGridConfig::finest_for_views`]),
+    /// and stands for [`INSTANT_NGP_FINEST`] where no views chose it.
     pub finest_resolution: f32,
 }
+
+/// instant-ngp's finest resolution for NeRF, the stand-in for an unchosen one.
+pub const INSTANT_NGP_FINEST: f32 = 2048.0;
+
+/// Cells of the finest level per training pixel's footprint at the scene centre, when the
+/// views choose the resolution: instant-ngp's ratio on NeRF-synthetic, whose 2048 cells span
+/// the 3-unit box that 800-pixel views (focal length 1111 px) see from 4.03 units away, about
+/// 2.5 cells per footprint. A fixed resolution is that many times too fine for views of a
+/// quarter the size: on our 200x200 sets 512 cells scored 0.2-0.3 dB above 2048 at 120 s
+/// (README, "finest resolution").
+pub const FINEST_CELLS_PER_PIXEL: f32 = 2.5;
+
+/// The largest resolution the views may choose: beyond it even 4K views of a distant object
+/// would only spread the same table over more collisions.
+const MAX_CHOSEN_FINEST: f32 = 8192.0;
 
 impl Default for HashGridConfig {
     /// instant-ngp's NeRF defaults with a 2^17 table instead of 2^19: on the CPU the table's
     /// Adam step and gradient scatter grow with its size (2^19 halved training throughput in
-    /// our measurements), which costs more quality in a time budget than the collisions do.
+    /// our measurements), which costs more quality in a time budget than the collisions do;
+    /// and the finest resolution left to the training views (instant-ngp's 2048 is its ratio
+    /// to the pixel footprint of 800-pixel views).
     fn default() -> Self {
-        Self {
-            levels: 16,
-            features_per_level: 2,
-            log2_table_size: 17,
-            base_resolution: 16.0,
-            finest_resolution: 2048.0,
-        }
+        Self { levels: 16, features_per_level: 2, log2_table_size: 17, base_resolution: 16.0, finest_resolution: 0.0 }
     }
 }
 
 impl HashGridConfig {
+    /// The finest level's resolution in use: the configured one, or instant-ngp's where it
+    /// was left to the views and none chose it.
+    pub fn finest(&self) -> f32 {
+        if self.finest_resolution > 0.0 { self.finest_resolution } else { INSTANT_NGP_FINEST.max(self.base_resolution) }
+    }
+
+    /// The finest resolution for a box whose longest side is `extent`, seen by views whose
+    /// pixels span `pixel_angle` radians from `distance` away from its centre:
+    /// [`FINEST_CELLS_PER_PIXEL`] cells per pixel footprint there, within the base resolution
+    /// and [`MAX_CHOSEN_FINEST`].
+    pub fn finest_for_views(&self, extent: f32, pixel_angle: f32, distance: f32) -> f32 {
+        let footprint = pixel_angle * distance;
+        if !(footprint > 0.0 && extent > 0.0 && footprint.is_finite() && extent.is_finite()) {
+            return self.finest();
+        }
+        (FINEST_CELLS_PER_PIXEL * extent / footprint)
+            .clamp(self.base_resolution, MAX_CHOSEN_FINEST.max(self.base_resolution))
+    }
+
     /// Growth factor `b` between levels.
     pub fn per_level_scale(&self) -> f32 {
         if self.levels <= 1 {
             return 1.0;
         }
-        ((self.finest_resolution.ln() - self.base_resolution.ln()) / (self.levels - 1) as f32).exp()
+        ((self.finest().ln() - self.base_resolution.ln()) / (self.levels - 1) as f32).exp()
     }
 
     /// Width of the encoded feature vector, `L·F`.
@@ -72,9 +104,11 @@ impl HashGridConfig {
         if !(self.base_resolution >= 2.0 && self.base_resolution.is_finite()) {
             return Err(format!("base_resolution must be at least 2, got {}", self.base_resolution));
         }
-        if !(self.finest_resolution >= self.base_resolution && self.finest_resolution.is_finite()) {
+        let chosen_by_views = self.finest_resolution == 0.0;
+        let fixed = self.finest_resolution >= self.base_resolution && self.finest_resolution.is_finite();
+        if !(chosen_by_views || fixed) {
             return Err(format!(
-                "finest_resolution ({}) must be at least base_resolution ({})",
+                "finest_resolution ({}) must be 0 (chosen from the views) or at least base_resolution ({})",
                 self.finest_resolution, self.base_resolution
             ));
         }
@@ -472,9 +506,32 @@ mod tests {
             HashGridConfig { log2_table_size: 40, ..Default::default() },
             HashGridConfig { base_resolution: f32::NAN, ..Default::default() },
             HashGridConfig { finest_resolution: 8.0, ..Default::default() },
+            HashGridConfig { finest_resolution: -1.0, ..Default::default() },
+            HashGridConfig { finest_resolution: f32::INFINITY, ..Default::default() },
         ];
         for c in bad {
             assert!(c.validate().is_err(), "{c:?}");
         }
+    }
+
+    #[test]
+    fn the_views_choose_the_finest_resolution_by_their_pixel_footprint() {
+        let auto = HashGridConfig::default();
+        assert_eq!(auto.finest_resolution, 0.0);
+        // Unchosen, it stands for instant-ngp's, and the level scales follow from that.
+        assert_eq!(auto.finest(), INSTANT_NGP_FINEST);
+        let fixed = HashGridConfig { finest_resolution: INSTANT_NGP_FINEST, ..auto };
+        assert_eq!(auto.layout(), fixed.layout());
+        // instant-ngp's NeRF-synthetic views (800 px, f = 1111.1 px, 4.03 from the centre of the
+        // 3-unit box) choose about its 2048; views of a quarter the size a quarter of that.
+        let lego = auto.finest_for_views(3.0, 1.0 / 1111.1, 4.031);
+        assert!((lego - 2.5 * 3.0 * 1111.1 / 4.031).abs() < 1e-2 && (lego / 2048.0 - 1.0).abs() < 0.01, "{lego}");
+        let quarter = auto.finest_for_views(3.0, 4.0 / 1111.1, 4.031);
+        assert!((quarter * 4.0 - lego).abs() < 1e-2, "{quarter}");
+        // Bounded by the base resolution and the cap; degenerate views leave it unchosen.
+        assert_eq!(auto.finest_for_views(3.0, 0.5, 100.0), auto.base_resolution);
+        assert_eq!(auto.finest_for_views(3.0, 1e-6, 1.0), MAX_CHOSEN_FINEST);
+        assert_eq!(auto.finest_for_views(3.0, 0.0, 4.0), INSTANT_NGP_FINEST);
+        assert_eq!(auto.finest_for_views(f32::NAN, 0.001, 4.0), INSTANT_NGP_FINEST);
     }
 }
