@@ -15,6 +15,7 @@ use lucid_scene::sampling::{Rng, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
 use crate::data::{ImageSet, ViewInfo, scene_box};
+use crate::encoding::hash_grid::FINEST_CELLS_PER_PIXEL;
 use crate::error_map::ErrorMap;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
@@ -203,6 +204,7 @@ impl NerfTrainer {
         };
         let centre = if unbounded { Vec3::ZERO } else { (bounds.0 + bounds.1) * 0.5 };
         let view = ViewInfo { frame: dataset.normalisation, ..ViewInfo::from_cameras(&data.cameras, centre) };
+        let pixel_angle = data.pixel_angle();
         let grid = &mut config.field.grid;
         if grid.finest_resolution == 0.0 {
             // A contracted scene's cells grow with distance, so no one footprint fits it; it
@@ -210,15 +212,19 @@ impl NerfTrainer {
             grid.finest_resolution = if unbounded {
                 grid.finest()
             } else {
-                grid.finest_for_views((bounds.1 - bounds.0).max_element(), data.pixel_angle(), view.radius)
+                grid.finest_for_views((bounds.1 - bounds.0).max_element(), pixel_angle, view.radius)
             };
-            let why = if unbounded { "instant-ngp's, for an unbounded scene" } else { "2.5 cells per training pixel" };
+            let why = if unbounded {
+                "instant-ngp's, for an unbounded scene".to_string()
+            } else {
+                format!("{FINEST_CELLS_PER_PIXEL} cells per training pixel")
+            };
             tracing::info!(
                 "hash grid: finest resolution {:.0} ({why}; field.grid.finest_resolution overrides it)",
                 grid.finest_resolution
             );
         }
-        let mut trainer = Self::new(config, bounds, data.pixel_angle(), device);
+        let mut trainer = Self::new(config, bounds, pixel_angle, device);
         trainer.view = view;
         trainer
     }
