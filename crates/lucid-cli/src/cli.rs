@@ -57,6 +57,30 @@ pub enum Command {
     Relight(RelightArgs),
     /// Environment-map tools: mirror ball <-> lat-long, SH projection and irradiance, median cut.
     Envmap(EnvmapArgs),
+    /// Serve an interactive viewer of a trained model (NeRF or splats) on a local web page:
+    /// orbit, zoom, refocus, depth, and comparison with a dataset's images.
+    View(ViewArgs),
+}
+
+/// `lucid view`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// A NeRF or splat checkpoint written by `lucid train`.
+    pub checkpoint: PathBuf,
+    /// A dataset to compare with: its cameras are drawn, and any of its images can be shown
+    /// beside the render at the same camera, scored.
+    #[arg(long)]
+    pub dataset: Option<PathBuf>,
+    /// TCP port (0: any free one; the URL printed says which).
+    #[arg(long, default_value_t = 7007)]
+    pub port: u16,
+    /// Address to listen on. The default serves this machine only; another address serves
+    /// every machine that reaches it.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Splits and scale of captures (as the run was trained with).
+    #[command(flatten)]
+    pub data: DatasetArgs,
 }
 
 /// How environment maps become light weights.

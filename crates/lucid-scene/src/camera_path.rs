@@ -83,10 +83,18 @@ fn camera(frame: &Value, width: u32, height: u32) -> Result<PinholeCamera, Strin
         .and_then(Value::as_array)
         .map(|a| a.iter().filter_map(Value::as_f64).map(|v| v as f32).collect())
         .unwrap_or_default();
-    if numbers.len() != 16 || numbers.iter().any(|v| !v.is_finite()) {
+    let fov = frame.get("fov").and_then(Value::as_f64).unwrap_or(f64::NAN);
+    camera_from_pose(&numbers, fov, width, height)
+}
+
+/// A pinhole from a camera path's numbers: `camera_to_world` as 16 row-major numbers (an
+/// OpenGL pose) and `fov_y`, the vertical field of view in degrees; square pixels, centred
+/// principal point. The viewer's requests name cameras the same way.
+pub fn camera_from_pose(camera_to_world: &[f32], fov_y: f64, width: u32, height: u32) -> Result<PinholeCamera, String> {
+    if camera_to_world.len() != 16 || camera_to_world.iter().any(|v| !v.is_finite()) {
         return Err("'camera_to_world' must be 16 finite numbers (a row-major 4×4 matrix)".into());
     }
-    let pose = Mat4::from_cols_array(&numbers.try_into().expect("16 numbers")).transpose();
+    let pose = Mat4::from_cols_slice(camera_to_world).transpose();
     if !pose.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
         return Err(format!("the last row of 'camera_to_world' is {}, not [0, 0, 0, 1]", pose.row(3)));
     }
@@ -94,11 +102,10 @@ fn camera(frame: &Value, width: u32, height: u32) -> Result<PinholeCamera, Strin
     if !(r.transpose() * r).abs_diff_eq(Mat3::IDENTITY, 1e-3) || r.determinant() < 0.0 {
         return Err("'camera_to_world' is not a rigid pose (its rotation is not orthonormal)".into());
     }
-    let fov = frame.get("fov").and_then(Value::as_f64).filter(|f| f.is_finite() && *f > 0.0 && *f < 180.0);
-    let Some(fov) = fov else {
+    if !(fov_y.is_finite() && fov_y > 0.0 && fov_y < 180.0) {
         return Err("'fov' must be a vertical field of view in degrees, in (0, 180)".into());
-    };
-    let f = 0.5 * height as f32 / (0.5 * (fov as f32).to_radians()).tan();
+    }
+    let f = 0.5 * height as f32 / (0.5 * (fov_y as f32).to_radians()).tan();
     let k = Intrinsics::pinhole(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32);
     Ok(PinholeCamera::new(k, pose))
 }

@@ -92,11 +92,17 @@ fn write_view(out: &Path, stem: &str, view: &RenderedView, truth: &Image, datase
         &view.depth_image(dataset.normalisation.as_ref()),
         WriteOptions { single_channel: true, ..Default::default() },
     )?;
-    let (w, h) = view.colour.dimensions();
-    let error = Image::from_pixels(
+    write_image(out.join(format!("{stem}_error.png")), &error_image(&view.colour, truth))
+}
+
+/// The error map written beside each evaluated view: the mean absolute difference of the
+/// encoded channels, ×4 and clipped, as linear grey (so a written PNG shows it as encoded).
+pub fn error_image(colour: &Image, truth: &Image) -> Image {
+    let (w, h) = colour.dimensions();
+    Image::from_pixels(
         w,
         h,
-        view.colour
+        colour
             .pixels()
             .iter()
             .zip(truth.pixels())
@@ -106,8 +112,7 @@ fn write_view(out: &Path, stem: &str, view: &RenderedView, truth: &Image, datase
                 [e, e, e, 1.0]
             })
             .collect(),
-    );
-    write_image(out.join(format!("{stem}_error.png")), &error)
+    )
 }
 
 /// The closing evaluation of a training run: the whole test split into `out`; returns the

@@ -17,6 +17,7 @@ mod train_itm;
 mod train_nerf;
 mod train_relight;
 mod train_splat;
+mod view;
 
 use anyhow::{Context, bail};
 
@@ -46,6 +47,7 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Tonemap(args) => tonemap::run(args),
         Command::Relight(args) => relight::run(args),
         Command::Envmap(args) => envmap::run(args),
+        Command::View(args) => view::run(args),
     }
 }
 

@@ -2,7 +2,7 @@
 //! file and linear in memory; alpha is straight and linear in both.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter};
+use std::io::{BufReader, Write};
 use std::path::Path;
 
 use image::{DynamicImage, ImageBuffer, ImageEncoder, ImageReader, Rgb, Rgba};
@@ -40,7 +40,7 @@ pub(super) fn dimensions(path: &Path) -> Result<(usize, usize), ImageError> {
 }
 
 pub(super) fn write(
-    out: &mut BufWriter<File>,
+    out: impl Write,
     path: &Path,
     image: &Image,
     format: ImageFormat,

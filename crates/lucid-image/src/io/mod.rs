@@ -169,6 +169,18 @@ pub fn write_image_with(path: impl AsRef<Path>, image: &Image, options: WriteOpt
     })
 }
 
+/// The image as an 8-bit PNG in memory (RGBA where it has alpha), encoded exactly as
+/// [`write_image`] writes a `.png`, for servers that send images rather than store them.
+pub fn encode_png(image: &Image) -> Result<Vec<u8>, ImageError> {
+    let path = Path::new("(PNG in memory)");
+    if image.width() == 0 || image.height() == 0 {
+        return Err(ImageError::encode(path, "PNG", "image is empty"));
+    }
+    let mut bytes = Vec::new();
+    ldr::write(&mut bytes, path, image, ImageFormat::Png, WriteOptions::default())?;
+    Ok(bytes)
+}
+
 /// Writes a file through `write` into a temporary sibling, then renames it over `path`.
 /// On any error the temporary file is removed and `path` is left untouched.
 pub fn write_atomically<E>(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>) -> Result<(), E>

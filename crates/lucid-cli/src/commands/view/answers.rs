@@ -1,0 +1,200 @@
+//! What the viewer answers to each request that needs the model or the dataset: renders as
+//! PNG (encoded as `lucid render` writes its frames, so the pixels are the same), the depth
+//! under a pixel, dataset images and scored comparisons. No HTTP here: a request in, a reply
+//! out, so the answers are tested without a server.
+
+use std::time::Instant;
+
+use lucid_image::color::srgb_decode;
+use lucid_image::metrics::{psnr, ssim};
+use lucid_image::{Image, encode_png};
+use lucid_scene::dataset::images::ImageSet;
+use lucid_scene::evaluation::{RenderedView, ViewModel, ground_truth};
+use lucid_scene::held_out::error_image;
+use lucid_scene::{Dataset, Intrinsics, PinholeCamera};
+use serde_json::json;
+
+use super::requests::{FrameRef, ImageMode, Route, ViewRequest};
+
+/// A reply: status, content type, body and extra headers.
+#[derive(Clone, Debug)]
+pub struct Reply {
+    /// HTTP status.
+    pub status: u16,
+    /// MIME type of the body.
+    pub content_type: &'static str,
+    /// The body.
+    pub body: Vec<u8>,
+    /// Extra headers (render time, scores).
+    pub headers: Vec<(&'static str, String)>,
+}
+
+impl Reply {
+    /// A JSON body.
+    pub fn json(value: &serde_json::Value) -> Self {
+        Self { status: 200, content_type: "application/json", body: value.to_string().into_bytes(), headers: vec![] }
+    }
+
+    /// A refusal or failure, its reason as plain text.
+    pub fn text(status: u16, reason: &str) -> Self {
+        Self { status, content_type: "text/plain; charset=utf-8", body: reason.as_bytes().to_vec(), headers: vec![] }
+    }
+
+    fn png(image: &Image) -> Self {
+        match encode_png(image) {
+            Ok(body) => Self { status: 200, content_type: "image/png", body, headers: vec![] },
+            Err(e) => Self::text(500, &e.to_string()),
+        }
+    }
+
+    /// The reply with one more header.
+    pub fn with(mut self, name: &'static str, value: String) -> Self {
+        self.headers.push((name, value));
+        self
+    }
+}
+
+/// The model and, optionally, the dataset it is compared with.
+pub struct ViewedScene<'a> {
+    /// The model's renderer.
+    pub renderer: &'a dyn ViewModel,
+    /// The dataset (cameras in the model's frame).
+    pub dataset: Option<&'a Dataset>,
+}
+
+impl ViewedScene<'_> {
+    /// The reply to a request that needs the model or the dataset.
+    pub fn answer(&self, route: &Route) -> Reply {
+        match route {
+            Route::Render(view) => self.render(view),
+            Route::Depth { view, x, y } => self.depth_at(view, *x, *y),
+            Route::Truth(frame) => match self.truth(*frame) {
+                Ok((set, truth)) => {
+                    drop(set);
+                    Reply::png(&truth.map(decoded))
+                }
+                Err(reply) => reply,
+            },
+            Route::Compare { frame, error } => self.compare(*frame, *error),
+            Route::Page | Route::Script | Route::Info => Reply::text(500, "answered without the model"),
+        }
+    }
+
+    fn render(&self, view: &ViewRequest) -> Reply {
+        let started = Instant::now();
+        let out = self.renderer.render_view(&view.camera, view.lens, view.lens_rays, 0);
+        let seconds = started.elapsed().as_secs_f64();
+        let image = match view.mode {
+            ImageMode::Colour => out.linear_colour(),
+            ImageMode::Depth => depth_colours(&out),
+        };
+        Reply::png(&image).with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string())
+    }
+
+    /// Renders the one ray through pixel `(x, y)`: a 1×1 camera whose principal point is
+    /// moved so its pixel centre is the clicked one.
+    fn depth_at(&self, view: &ViewRequest, x: u32, y: u32) -> Reply {
+        let k = view.camera.intrinsics;
+        let one = Intrinsics { width: 1, height: 1, cx: k.cx - x as f32, cy: k.cy - y as f32, ..k };
+        let camera = PinholeCamera::new(one, view.camera.camera_to_world);
+        let out = self.renderer.render_view(&camera, None, 1, 0);
+        let depth = out.depth[0];
+        let opacity = out.colour.pixels()[0][3];
+        // The focus distance is measured along the optical axis, the depth along the ray.
+        let direction = k.camera_direction(x as f32 + 0.5, y as f32 + 0.5);
+        let focus = depth / direction.length();
+        Reply::json(&json!({ "hit": depth > 0.0 && opacity > 0.5, "depth": depth, "focus": focus, "opacity": opacity }))
+    }
+
+    fn truth(&self, frame: FrameRef) -> Result<(ImageSet, Image), Reply> {
+        let Some(dataset) = self.dataset else {
+            return Err(Reply::text(404, "no dataset was given (lucid view CHECKPOINT --dataset DIR)"));
+        };
+        let frames = dataset.frames(frame.split);
+        let Some(one) = frames.get(frame.index) else {
+            return Err(Reply::text(
+                404,
+                &format!(
+                    "the {} split has {} images; there is no index {}",
+                    frame.split.name(),
+                    frames.len(),
+                    frame.index
+                ),
+            ));
+        };
+        let set = ImageSet::load(std::slice::from_ref(one)).map_err(|e| Reply::text(500, &e.to_string()))?;
+        let truth = ground_truth(&set, 0, self.renderer.background());
+        Ok((set, truth))
+    }
+
+    fn compare(&self, frame: FrameRef, error: bool) -> Reply {
+        let (set, truth) = match self.truth(frame) {
+            Ok(read) => read,
+            Err(reply) => return reply,
+        };
+        let started = Instant::now();
+        let view = self.renderer.render_view(&set.cameras[0], set.lenses[0], lucid_scene::evaluation::LENS_RAYS, 0);
+        let seconds = started.elapsed().as_secs_f64();
+        let opaque = view.colour.map(|p| [p[0], p[1], p[2], 1.0]);
+        let mask = set.mask_weights(0);
+        let score = |s: Result<f64, _>| s.map_or("nan".to_string(), |v: f64| format!("{v:.3}"));
+        let image = if error { error_image(&view.colour, &truth) } else { view.linear_colour() };
+        Reply::png(&image)
+            .with("X-Render-Seconds", format!("{seconds:.4}"))
+            .with("X-PSNR", score(psnr(&opaque, &truth, mask.as_deref())))
+            .with("X-SSIM", score(ssim(&opaque, &truth, mask.as_deref())))
+    }
+}
+
+fn decoded(p: [f32; 4]) -> [f32; 4] {
+    [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]
+}
+
+/// Depth in false colour (turbo), near to far over the depths this view saw; black where the
+/// rays hit nothing.
+fn depth_colours(view: &RenderedView) -> Image {
+    let (w, h) = view.colour.dimensions();
+    let hits = view.depth.iter().zip(view.colour.pixels()).filter(|(d, p)| **d > 0.0 && p[3] > 0.5).map(|(d, _)| *d);
+    let (near, far) = hits.fold((f32::INFINITY, 0f32), |(lo, hi), d| (lo.min(d), hi.max(d)));
+    let span = (far - near).max(1e-6);
+    let pixels = view
+        .depth
+        .iter()
+        .zip(view.colour.pixels())
+        .map(|(&d, p)| {
+            if d > 0.0 && p[3] > 0.5 {
+                let [r, g, b] = turbo(1.0 - (d - near) / span);
+                decoded([r, g, b, 1.0])
+            } else {
+                [0.0, 0.0, 0.0, 1.0]
+            }
+        })
+        .collect();
+    Image::from_pixels(w, h, pixels)
+}
+
+/// Google's turbo colour map (Mikhailov's polynomial fit), display-encoded RGB of `t ∈ [0,1]`.
+fn turbo(t: f32) -> [f32; 3] {
+    let t = t.clamp(0.0, 1.0);
+    let poly = |c: [f32; 6]| (c[0] + t * (c[1] + t * (c[2] + t * (c[3] + t * (c[4] + t * c[5]))))).clamp(0.0, 1.0);
+    [
+        poly([0.135_721_4, 4.615_392_6, -42.660_324, 132.131_08, -152.942_4, 59.286_38]),
+        poly([0.091_402_61, 2.194_188_4, 4.842_966_6, -14.185_033, 4.277_298_6, 2.829_566]),
+        poly([0.106_673_3, 12.641_946, -60.582_05, 110.362_77, -89.903_11, 27.348_25]),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn turbo_runs_from_blue_through_green_to_dark_red() {
+        let [r, g, b] = turbo(0.1);
+        assert!(b > 0.8 && r < 0.4 && g < 0.4, "{:?}", turbo(0.1));
+        let [r, g, b] = turbo(0.5);
+        assert!(g > 0.9 && r < g && b < 0.4, "{:?}", turbo(0.5));
+        let [r, g, b] = turbo(1.0);
+        assert!(r > 0.5 && r < 0.6 && g < 0.1 && b == 0.0, "{:?}", turbo(1.0));
+    }
+}

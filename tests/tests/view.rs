@@ -1,0 +1,206 @@
+//! `lucid view` end to end: a server on a free port renders the pixels `lucid render` renders
+//! at the same pose, scores dataset views as `lucid eval` does, finds the depth under a pixel,
+//! and refuses what it must refuse (paths outside its routes, absurd sizes, other methods,
+//! oversized heads, foreign hosts) without falling over, also under many requests at once.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+
+use glam::Vec3;
+use lucid_scene::camera_path::write_camera_path;
+use lucid_scene::{Intrinsics, PinholeCamera, look_at};
+use lucid_tests::{lucid_bin, lucid_in, temp_dir};
+
+/// A running `lucid view`, stopped when dropped.
+struct Viewer {
+    child: Child,
+    port: u16,
+}
+
+impl Viewer {
+    fn start(dir: &Path, checkpoint: &str) -> Self {
+        let mut child = Command::new(lucid_bin())
+            .args(["view", checkpoint, "--dataset", "ds", "--port", "0"])
+            .current_dir(dir)
+            .env("LUCID_LOG", "warn")
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let port = line
+            .split("http://127.0.0.1:")
+            .nth(1)
+            .and_then(|rest| rest.split('/').next())
+            .and_then(|p| p.parse().ok())
+            .unwrap_or_else(|| panic!("no URL in {line:?}"));
+        Self { child, port }
+    }
+
+    /// Sends `request` (a whole request head, `{host}` replaced) and returns status, headers
+    /// and body.
+    fn raw(&self, request: &str) -> Reply {
+        let mut stream = TcpStream::connect(("127.0.0.1", self.port)).unwrap();
+        stream.write_all(request.replace("{host}", &format!("127.0.0.1:{}", self.port)).as_bytes()).unwrap();
+        let mut bytes = Vec::new();
+        stream.read_to_end(&mut bytes).unwrap();
+        let split = bytes.windows(4).position(|w| w == b"\r\n\r\n").expect("a reply head") + 4;
+        let head = String::from_utf8(bytes[..split].to_vec()).unwrap();
+        let status = head.split(' ').nth(1).unwrap().parse().unwrap();
+        Reply { status, head, body: bytes[split..].to_vec() }
+    }
+
+    fn get(&self, url: &str) -> Reply {
+        self.raw(&format!("GET {url} HTTP/1.1\r\nHost: {{host}}\r\n\r\n"))
+    }
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+struct Reply {
+    status: u16,
+    head: String,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn header(&self, name: &str) -> Option<&str> {
+        self.head.lines().find_map(|l| {
+            let (k, v) = l.split_once(':')?;
+            k.eq_ignore_ascii_case(name).then(|| v.trim())
+        })
+    }
+
+    fn text(&self) -> String {
+        String::from_utf8_lossy(&self.body).into_owned()
+    }
+
+    fn png(&self, dir: &Path, name: &str) -> lucid_image::Image {
+        assert_eq!(self.status, 200, "{}", self.text());
+        assert_eq!(self.header("content-type"), Some("image/png"));
+        std::fs::write(dir.join(name), &self.body).unwrap();
+        lucid_image::read_image(dir.join(name)).unwrap()
+    }
+}
+
+/// A pose off the dataset's cameras, as a request sends it.
+fn novel_camera() -> PinholeCamera {
+    let k = Intrinsics::from_fov_x(40, 30, 0.7);
+    PinholeCamera::new(k, look_at(Vec3::new(2.5, -2.8, 1.6), Vec3::new(0.1, 0.0, 0.2), Vec3::Z))
+}
+
+fn query(camera: &PinholeCamera) -> String {
+    let pose: Vec<String> =
+        camera.camera_to_world.transpose().to_cols_array().iter().map(|v| format!("{v:e}")).collect();
+    let k = camera.intrinsics;
+    format!("c2w={}&fov={:e}&w={}&h={}", pose.join("%2C"), k.fov_y().to_degrees(), k.width, k.height)
+}
+
+fn check_model(dir: &Path, checkpoint: &str, out: &str) {
+    let viewer = Viewer::start(dir, checkpoint);
+    let camera = novel_camera();
+
+    // The same pose through `lucid render --camera-path`: the same pixels.
+    write_camera_path(&dir.join("pose.json"), &[camera], 30.0).unwrap();
+    lucid_in(dir, &["render", checkpoint, "--camera-path", "pose.json", "-o", out]).success();
+    let rendered = lucid_image::read_image(dir.join(out).join("frame_0000.png")).unwrap();
+    let served = viewer.get(&format!("/api/render?{}", query(&camera)));
+    let seconds: f64 = served.header("x-render-seconds").unwrap().parse().unwrap();
+    assert!(seconds > 0.0);
+    let served = served.png(dir, "served.png");
+    assert_eq!(served.dimensions(), (40, 30));
+    assert!(served.pixels() == rendered.pixels(), "{checkpoint}: the viewer's render differs from lucid render's");
+
+    // The depth under a pixel is the render's depth there, measured along the axis.
+    let (x, y) = (21, 14);
+    let depth = viewer.get(&format!("/api/depth?{}&x={x}&y={y}", query(&camera)));
+    assert_eq!(depth.status, 200, "{}", depth.text());
+    let depth: serde_json::Value = serde_json::from_slice(&depth.body).unwrap();
+    let along_ray = lucid_image::read_image(dir.join(out).join("frame_0000_depth.exr")).unwrap().get(x, y)[0];
+    let axis = camera.intrinsics.camera_direction(x as f32 + 0.5, y as f32 + 0.5).length();
+    assert_eq!(depth["hit"], true, "{depth}");
+    let focus = depth["focus"].as_f64().unwrap() as f32;
+    assert!((focus - along_ray / axis).abs() <= 1e-4 * along_ray, "focus {focus}, render depth {along_ray} / {axis}");
+
+    // A dataset view scored as `lucid eval` scored it at the end of training.
+    let metrics: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join(checkpoint).with_file_name("eval_test/metrics.json")).unwrap(),
+    )
+    .unwrap();
+    let compared = viewer.get("/api/compare?split=test&index=1");
+    assert_eq!(compared.status, 200, "{}", compared.text());
+    let psnr: f64 = compared.header("x-psnr").unwrap().parse().unwrap();
+    let evaluated = metrics["views"][1]["psnr"].as_f64().unwrap();
+    assert!((psnr - evaluated).abs() < 2e-3, "viewer {psnr} dB, eval {evaluated} dB");
+    let truth = viewer.get("/api/truth?split=test&index=1").png(dir, "truth.png");
+    assert_eq!(truth.dimensions(), (32, 32));
+    let missing = viewer.get("/api/truth?split=test&index=3");
+    assert!(missing.status == 404 && missing.text().contains("3 images"), "{}", missing.text());
+}
+
+#[test]
+fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
+    let dir = temp_dir();
+    let d = dir.path();
+    lucid_in(d, &["gen", "object", "-o", "ds", "--views", "24,1,3", "--res", "32", "--spp", "8", "--seed", "3"])
+        .success();
+    lucid_in(d, &["train", "splat", "ds", "-o", "splat", "--steps", "150"]).success();
+    lucid_in(d, &["train", "nerf", "ds", "-o", "nerf", "--steps", "60"]).success();
+    check_model(d, "splat/checkpoint.lucid", "splat_frames");
+    check_model(d, "nerf/checkpoint.lucid", "nerf_frames");
+
+    let viewer = Viewer::start(d, "splat/checkpoint.lucid");
+    let page = viewer.get("/");
+    assert!(page.status == 200 && page.text().contains("/viewer.js"), "{}", page.text());
+    assert!(viewer.get("/viewer.js").text().contains("requestFrame"));
+    let info: serde_json::Value = serde_json::from_slice(&viewer.get("/api/info").body).unwrap();
+    assert_eq!(info["kind"], "splat");
+    assert_eq!(info["cameras"].as_array().unwrap().len(), 28);
+
+    // Refusals: each a 4xx with its reason, and the server goes on serving.
+    let pose = query(&novel_camera());
+    let refusals = [
+        ("GET /../../etc/passwd HTTP/1.1\r\nHost: {host}\r\n\r\n", 404),
+        ("GET /%2e%2e/%2e%2e/etc/passwd HTTP/1.1\r\nHost: {host}\r\n\r\n", 404),
+        (&format!("GET /api/render?{pose}&w=100000 HTTP/1.1\r\nHost: {{host}}\r\n\r\n"), 400),
+        (
+            &format!(
+                "GET /api/render?{}&w=3000&h=3000 HTTP/1.1\r\nHost: {{host}}\r\n\r\n",
+                pose.split("&w=").next().unwrap()
+            ),
+            400,
+        ),
+        ("POST /api/render HTTP/1.1\r\nHost: {host}\r\nContent-Length: 3\r\n\r\nabc", 405),
+        ("GET /api/info HTTP/1.1\r\nHost: {host}\r\nContent-Length: 3\r\n\r\nabc", 413),
+        ("GET /api/info HTTP/1.1\r\nHost: evil.example:80\r\n\r\n", 403),
+        ("GARBAGE\r\n\r\n", 400),
+        (&format!("GET /api/info HTTP/1.1\r\nHost: {{host}}\r\nX-Big: {}\r\n\r\n", "a".repeat(20_000)), 431),
+        (&format!("GET /api/render?{} HTTP/1.1\r\nHost: {{host}}\r\n\r\n", "x".repeat(5000)), 414),
+    ];
+    for (request, status) in refusals {
+        let reply = viewer.raw(request);
+        assert_eq!(reply.status, status, "{}: {}", &request[..request.len().min(60)], reply.text());
+        assert!(!reply.body.is_empty(), "a reason for {status}");
+    }
+
+    // Many renders at once: each is served or told to retry (503), none is lost, and the
+    // server still answers afterwards.
+    let url = format!(
+        "/api/render?{}",
+        query(&PinholeCamera { intrinsics: Intrinsics::from_fov_x(200, 200, 0.7), ..novel_camera() })
+    );
+    let statuses: Vec<u16> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..16).map(|_| s.spawn(|| viewer.get(&url).status)).collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert!(statuses.iter().all(|s| *s == 200 || *s == 503), "{statuses:?}");
+    assert!(statuses.iter().filter(|s| **s == 200).count() >= 5, "{statuses:?}");
+    assert_eq!(viewer.get("/api/info").status, 200);
+}
