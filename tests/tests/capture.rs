@@ -165,7 +165,7 @@ fn a_generated_capture_reads_back_as_the_scene_rendered() {
 fn a_capture_models_outputs_are_in_the_datasets_own_frame() {
     use lucid_image::metrics::psnr;
     use lucid_scene::PinholeCamera;
-    use lucid_scene::camera_path::{read_camera_path, write_camera_path};
+    use lucid_scene::camera_path::{CameraPath, read_camera_path, write_camera_path};
     use lucid_scene::colmap::ColmapModel;
     let dir = temp_dir();
     let d = dir.path();
@@ -193,7 +193,7 @@ fn a_capture_models_outputs_are_in_the_datasets_own_frame() {
     assert!(agreement > 40.0, "splats.ply through the dataset's camera: {agreement:.1} dB from the evaluation");
 
     // The same camera as a camera path.
-    write_camera_path(&d.join("view.json"), &[camera], 30.0).unwrap();
+    write_camera_path(&d.join("view.json"), &CameraPath::pinholes(vec![camera], 30.0)).unwrap();
     lucid_in(d, &["render", "s/checkpoint.lucid", "--camera-path", "view.json", "-o", "v"]).success();
     let rendered = lucid_image::read_image(d.join("v/frame_0000.png")).unwrap();
     let agreement = psnr(&rendered, &evaluated, None).unwrap();

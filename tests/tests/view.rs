@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 use glam::Vec3;
-use lucid_scene::camera_path::write_camera_path;
+use lucid_scene::camera_path::{CameraPath, write_camera_path};
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_tests::{lucid_bin, lucid_in, temp_dir};
 
@@ -108,7 +108,7 @@ fn check_model(dir: &Path, checkpoint: &str, out: &str) {
     let camera = novel_camera();
 
     // The same pose through `lucid render --camera-path`: the same pixels.
-    write_camera_path(&dir.join("pose.json"), &[camera], 30.0).unwrap();
+    write_camera_path(&dir.join("pose.json"), &CameraPath::pinholes(vec![camera], 30.0)).unwrap();
     lucid_in(dir, &["render", checkpoint, "--camera-path", "pose.json", "-o", out]).success();
     let rendered = lucid_image::read_image(dir.join(out).join("frame_0000.png")).unwrap();
     let served = viewer.get(&format!("/api/render?{}", query(&camera)));
@@ -155,6 +155,23 @@ fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
     lucid_in(d, &["train", "nerf", "ds", "-o", "nerf", "--steps", "60"]).success();
     check_model(d, "splat/checkpoint.lucid", "splat_frames");
     check_model(d, "nerf/checkpoint.lucid", "nerf_frames");
+
+    // A path's own lens (a refocus pull keyed in the viewer) renders as --aperture/--focus do,
+    // frame by frame, and the path written back keeps it.
+    let mut path = CameraPath::pinholes(vec![novel_camera(), novel_camera()], 30.0);
+    path.lenses[1] = Some((0.08, 3.0));
+    write_camera_path(&d.join("pull.json"), &path).unwrap();
+    lucid_in(d, &["render", "splat/checkpoint.lucid", "--camera-path", "pull.json", "-o", "pull"]).success();
+    let one = &["--aperture", "0.08", "--focus", "3.0"];
+    let mut args = vec!["render", "splat/checkpoint.lucid", "--camera-path", "pull.json", "-o", "lens"];
+    args.extend_from_slice(one);
+    lucid_in(d, &args).success();
+    let frame = |dir: &str, k: usize| lucid_image::read_image(d.join(dir).join(format!("frame_{k:04}.png"))).unwrap();
+    assert!(frame("pull", 1).pixels() == frame("lens", 1).pixels(), "the path's lens is the flags' lens");
+    assert!(frame("pull", 0).pixels() == frame("splat_frames", 0).pixels(), "a camera without a lens is a pinhole");
+    assert!(frame("pull", 1).pixels() != frame("pull", 0).pixels(), "the lens blurs what is out of focus");
+    let written = lucid_scene::camera_path::read_camera_path(&d.join("pull/camera_path.json")).unwrap();
+    assert_eq!(written.lenses, path.lenses);
 
     let viewer = Viewer::start(d, "splat/checkpoint.lucid");
     let page = viewer.get("/");

@@ -8,7 +8,9 @@
 //! ```
 //!
 //! Poses are OpenGL camera-to-world matrices (as in `transforms.json`); `fov` is the vertical
-//! field of view in degrees, with square pixels and the principal point at the centre.
+//! field of view in degrees, with square pixels and the principal point at the centre. A
+//! camera may also carry a thin lens in Lucid's keys of `transforms.json`, `aperture_radius`
+//! and `focus_distance` (in the path's units), for refocus pulls; other tools ignore them.
 //! Lucid writes the path of every novel-view render beside its frames, so a render can be
 //! reproduced or continued in another tool.
 
@@ -34,8 +36,19 @@ pub struct CameraPathError {
 pub struct CameraPath {
     /// The cameras, in the path's own coordinates.
     pub cameras: Vec<PinholeCamera>,
+    /// Each camera's thin lens, `(aperture radius, focus distance)` in the path's units, or
+    /// `None` for a pinhole.
+    pub lenses: Vec<Option<(f32, f32)>>,
     /// Frames per second.
     pub fps: f64,
+}
+
+impl CameraPath {
+    /// Pinhole cameras at `fps`.
+    pub fn pinholes(cameras: Vec<PinholeCamera>, fps: f64) -> Self {
+        let lenses = vec![None; cameras.len()];
+        Self { cameras, lenses, fps }
+    }
 }
 
 /// Reads a `camera_path.json`.
@@ -69,12 +82,31 @@ pub fn read_camera_path(path: &Path) -> Result<CameraPath, CameraPathError> {
     if frames.is_empty() {
         return Err(fail("'camera_path' holds no camera".into()));
     }
-    let cameras = frames
-        .iter()
-        .enumerate()
-        .map(|(i, frame)| camera(frame, width, height).map_err(|reason| fail(format!("camera {i}: {reason}"))))
-        .collect::<Result<_, _>>()?;
-    Ok(CameraPath { cameras, fps })
+    let mut cameras = Vec::with_capacity(frames.len());
+    let mut lenses = Vec::with_capacity(frames.len());
+    for (i, frame) in frames.iter().enumerate() {
+        let at = |reason: String| fail(format!("camera {i}: {reason}"));
+        cameras.push(camera(frame, width, height).map_err(at)?);
+        lenses.push(lens(frame).map_err(at)?);
+    }
+    Ok(CameraPath { cameras, lenses, fps })
+}
+
+/// A camera's thin lens: `aperture_radius` (0 or absent: a pinhole) and `focus_distance`.
+fn lens(frame: &Value) -> Result<Option<(f32, f32)>, String> {
+    let number = |key: &str| -> Result<Option<f64>, String> {
+        frame
+            .get(key)
+            .map(|v| {
+                v.as_f64().filter(|f| f.is_finite() && *f >= 0.0).ok_or(format!("'{key}' {v} must be a length ≥ 0"))
+            })
+            .transpose()
+    };
+    match (number("aperture_radius")?, number("focus_distance")?) {
+        (None | Some(0.0), _) => Ok(None),
+        (Some(a), Some(f)) if f > 0.0 => Ok(Some((a as f32, f as f32))),
+        (Some(_), _) => Err("'aperture_radius' is open but 'focus_distance' is missing or zero".into()),
+    }
 }
 
 fn camera(frame: &Value, width: u32, height: u32) -> Result<PinholeCamera, String> {
@@ -110,19 +142,27 @@ pub fn camera_from_pose(camera_to_world: &[f32], fov_y: f64, width: u32, height:
     Ok(PinholeCamera::new(k, pose))
 }
 
-/// Writes `cameras` (pinholes of one image size) as a `camera_path.json`, atomically.
-pub fn write_camera_path(path: &Path, cameras: &[PinholeCamera], fps: f64) -> Result<(), CameraPathError> {
+/// Writes a path (cameras of one image size) as a `camera_path.json`, atomically.
+pub fn write_camera_path(path: &Path, camera_path: &CameraPath) -> Result<(), CameraPathError> {
     let fail = |reason: String| CameraPathError { path: path.to_path_buf(), reason };
+    let CameraPath { cameras, lenses, fps } = camera_path;
+    let fps = *fps;
     let Some(first) = cameras.first() else { return Err(fail("no camera to write".into())) };
     let (width, height) = (first.intrinsics.width, first.intrinsics.height);
     let frames: Vec<Value> = cameras
         .iter()
-        .map(|c| {
-            json!({
+        .enumerate()
+        .map(|(i, c)| {
+            let mut frame = json!({
                 "camera_to_world": c.camera_to_world.transpose().to_cols_array(),
                 "fov": c.intrinsics.fov_y().to_degrees(),
                 "aspect": c.intrinsics.width as f32 / c.intrinsics.height as f32,
-            })
+            });
+            if let Some(Some((aperture, focus))) = lenses.get(i) {
+                frame["aperture_radius"] = json!(aperture);
+                frame["focus_distance"] = json!(focus);
+            }
+            frame
         })
         .collect();
     let root = json!({
@@ -159,9 +199,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("camera_path.json");
         let cameras = path();
-        write_camera_path(&file, &cameras, 24.0).unwrap();
+        let mut written = CameraPath::pinholes(cameras.clone(), 24.0);
+        written.lenses[2] = Some((0.05, 3.5));
+        write_camera_path(&file, &written).unwrap();
         let read = read_camera_path(&file).unwrap();
         assert_eq!(read.fps, 24.0);
+        assert_eq!(read.lenses, written.lenses);
         assert_eq!(read.cameras.len(), cameras.len());
         for (a, b) in cameras.iter().zip(&read.cameras) {
             assert!(a.camera_to_world.abs_diff_eq(b.camera_to_world, 1e-6));
@@ -216,6 +259,18 @@ mod tests {
                     r#"{{"render_width": 10, "render_height": 10, "camera_path": [{{"camera_to_world": {pose}, "fov": 0}}]}}"#
                 ),
                 "fov",
+            ),
+            (
+                &format!(
+                    r#"{{"render_width": 10, "render_height": 10, "camera_path": [{{"camera_to_world": {pose}, "fov": 50, "aperture_radius": 0.1}}]}}"#
+                ),
+                "focus_distance",
+            ),
+            (
+                &format!(
+                    r#"{{"render_width": 10, "render_height": 10, "camera_path": [{{"camera_to_world": {pose}, "fov": 50, "aperture_radius": -1}}]}}"#
+                ),
+                "aperture_radius",
             ),
         ];
         for (text, want) in cases {

@@ -181,6 +181,32 @@ pub fn encode_png(image: &Image) -> Result<Vec<u8>, ImageError> {
     Ok(bytes)
 }
 
+/// An image whose colours are already sRGB-encoded in `[0,1]` (as NeRF and splat renders
+/// are) as an opaque 8-bit RGB PNG in memory: quantised directly, with no decode and
+/// re-encode that could move a value across a rounding step, so every writer of such renders
+/// (`lucid render`'s frames, the viewer's replies) gives the same pixels. `fast` trades size
+/// for encoding time (for a viewer's frames).
+pub fn encoded_png(image: &Image, fast: bool) -> Result<Vec<u8>, ImageError> {
+    let path = Path::new("(PNG in memory)");
+    let fail = |reason: String| ImageError::encode(path, "PNG", reason);
+    if image.width() == 0 || image.height() == 0 {
+        return Err(fail("image is empty".into()));
+    }
+    let quantise = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let data: Vec<u8> = image.pixels().iter().flat_map(|p| [quantise(p[0]), quantise(p[1]), quantise(p[2])]).collect();
+    let mut bytes = Vec::with_capacity(data.len() / 2);
+    let mut encoder = png::Encoder::new(&mut bytes, image.width() as u32, image.height() as u32);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    if fast {
+        encoder.set_compression(png::Compression::Fast);
+    }
+    let mut writer = encoder.write_header().map_err(|e| fail(e.to_string()))?;
+    writer.write_image_data(&data).map_err(|e| fail(e.to_string()))?;
+    writer.finish().map_err(|e| fail(e.to_string()))?;
+    Ok(bytes)
+}
+
 /// Writes a file through `write` into a temporary sibling, then renames it over `path`.
 /// On any error the temporary file is removed and `path` is left untouched.
 pub fn write_atomically<E>(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>) -> Result<(), E>

@@ -2,7 +2,9 @@
 //! novel views of a trained model along a camera path, as numbered PNGs with depth EXRs and
 //! the path itself (`camera_path.json`, nerfstudio's format), and with `--video FILE` as one
 //! animated PNG that plays in a browser. `--aperture A --focus D`
-//! renders through a thin lens (depth of field) by averaging rays over the aperture.
+//! renders through a thin lens (depth of field) by averaging rays over the aperture; without
+//! them, each camera of a path renders through its own lens where the path gives one
+//! (`aperture_radius`, `focus_distance`: a refocus pull keyed in `lucid view`).
 //!
 //! A model trained on a capture works in normalised coordinates; everything this command
 //! reads and writes is in the dataset's own frame instead (camera paths, depth, and the
@@ -12,8 +14,8 @@ use std::f32::consts::TAU;
 
 use anyhow::{Context, bail};
 use glam::Vec3;
-use lucid_image::{WriteOptions, write_image, write_image_with};
-use lucid_scene::camera_path::{read_camera_path, write_camera_path};
+use lucid_image::{WriteOptions, write_image_with};
+use lucid_scene::camera_path::{CameraPath, read_camera_path, write_camera_path};
 use lucid_scene::dataset::SceneNormalisation;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
@@ -39,15 +41,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame = loaded.view().frame;
     // Lengths on the command line are the dataset's; the model measures in the scene's.
     let to_scene = |length: f32| frame.map_or(length, |n| length * n.scale as f32);
-    let (cameras, fps) = match &args.camera_path {
+    // Lenses stay in the dataset's units here (they are written back with the path).
+    let (cameras, path_lenses, fps) = match &args.camera_path {
         Some(file) => {
             let path = read_camera_path(file)?;
             let cameras = path.cameras.iter().map(|c| resized(c, args.width, args.height)).collect();
-            (in_frame(cameras, frame.as_ref(), SceneNormalisation::pose_to_scene), path.fps)
+            (in_frame(cameras, frame.as_ref(), SceneNormalisation::pose_to_scene), path.lenses, path.fps)
         }
-        None => (path_cameras(&args, &loaded, args.radius.map(to_scene))?, FPS),
+        None => {
+            let cameras = path_cameras(&args, &loaded, args.radius.map(to_scene))?;
+            let lenses = vec![None; cameras.len()];
+            (cameras, lenses, FPS)
+        }
     };
-    let lens = args.aperture.zip(args.focus).map(|(a, f)| (to_scene(a), to_scene(f)));
+    // --aperture and --focus hold for every frame; otherwise each frame has the path's lens.
+    let lenses: Vec<Option<(f32, f32)>> = match args.aperture.zip(args.focus) {
+        Some(lens) => vec![Some(lens).filter(|(a, _)| *a > 0.0); cameras.len()],
+        None => path_lenses,
+    };
 
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
@@ -67,11 +78,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     loaded.with_renderer(|renderer| -> anyhow::Result<()> {
         for (k, camera) in cameras.iter().enumerate() {
+            let lens = lenses[k].map(|(a, f)| (to_scene(a), to_scene(f)));
             let out = renderer.render_view(camera, lens, args.lens_rays, k as u64);
-            let colour = out.linear_colour();
-            write_image(args.output.join(format!("frame_{k:04}.png")), &colour)?;
+            // Written from the encoded colours as the viewer sends them: the same pixels.
+            let png = lucid_image::encoded_png(&out.colour, false)?;
+            let file = args.output.join(format!("frame_{k:04}.png"));
+            lucid_image::write_atomically(&file, |w| {
+                std::io::Write::write_all(w, &png).map_err(|e| lucid_image::ImageError::io(&file, e))
+            })?;
             if let Some(video) = &mut video {
-                video.push(&colour)?;
+                video.push(&out.linear_colour())?;
             }
             let depth = out.depth_image(frame.as_ref());
             let depth_options = WriteOptions { single_channel: true, ..Default::default() };
@@ -86,11 +102,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let seconds = started.elapsed().as_secs_f64();
     let path_file = args.output.join("camera_path.json");
-    write_camera_path(
-        &path_file,
-        &in_frame(cameras.clone(), frame.as_ref(), SceneNormalisation::pose_to_dataset),
+    let written = CameraPath {
+        cameras: in_frame(cameras.clone(), frame.as_ref(), SceneNormalisation::pose_to_dataset),
+        lenses,
         fps,
-    )?;
+    };
+    write_camera_path(&path_file, &written)?;
     println!(
         "rendered {} frames of {}x{} in {seconds:.1} s ({:.3} s per frame) -> {} (path: {}{})",
         cameras.len(),

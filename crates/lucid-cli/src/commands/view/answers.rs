@@ -5,9 +5,8 @@
 
 use std::time::Instant;
 
-use lucid_image::color::srgb_decode;
 use lucid_image::metrics::{psnr, ssim};
-use lucid_image::{Image, encode_png};
+use lucid_image::{Image, encode_png, encoded_png};
 use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::{RenderedView, ViewModel, ground_truth};
 use lucid_scene::held_out::error_image;
@@ -40,8 +39,18 @@ impl Reply {
         Self { status, content_type: "text/plain; charset=utf-8", body: reason.as_bytes().to_vec(), headers: vec![] }
     }
 
+    /// A linear image as PNG.
     fn png(image: &Image) -> Self {
-        match encode_png(image) {
+        Self::png_bytes(encode_png(image))
+    }
+
+    /// An sRGB-encoded image (a render, a dataset image) as PNG, quickly compressed.
+    fn encoded_png(image: &Image) -> Self {
+        Self::png_bytes(encoded_png(image, true))
+    }
+
+    fn png_bytes(bytes: Result<Vec<u8>, lucid_image::ImageError>) -> Self {
+        match bytes {
             Ok(body) => Self { status: 200, content_type: "image/png", body, headers: vec![] },
             Err(e) => Self::text(500, &e.to_string()),
         }
@@ -69,10 +78,7 @@ impl ViewedScene<'_> {
             Route::Render(view) => self.render(view),
             Route::Depth { view, x, y } => self.depth_at(view, *x, *y),
             Route::Truth(frame) => match self.truth(*frame) {
-                Ok((set, truth)) => {
-                    drop(set);
-                    Reply::png(&truth.map(decoded))
-                }
+                Ok((_, truth)) => Reply::encoded_png(&truth),
                 Err(reply) => reply,
             },
             Route::Compare { frame, error } => self.compare(*frame, *error),
@@ -85,10 +91,12 @@ impl ViewedScene<'_> {
         let out = self.renderer.render_view(&view.camera, view.lens, view.lens_rays, 0);
         let seconds = started.elapsed().as_secs_f64();
         let image = match view.mode {
-            ImageMode::Colour => out.linear_colour(),
+            ImageMode::Colour => out.colour,
             ImageMode::Depth => depth_colours(&out),
         };
-        Reply::png(&image).with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string())
+        Reply::encoded_png(&image)
+            .with("X-Render-Seconds", format!("{seconds:.4}"))
+            .with("X-Samples", out.samples.to_string())
     }
 
     /// Renders the one ray through pixel `(x, y)`: a 1×1 camera whose principal point is
@@ -138,19 +146,14 @@ impl ViewedScene<'_> {
         let opaque = view.colour.map(|p| [p[0], p[1], p[2], 1.0]);
         let mask = set.mask_weights(0);
         let score = |s: Result<f64, _>| s.map_or("nan".to_string(), |v: f64| format!("{v:.3}"));
-        let image = if error { error_image(&view.colour, &truth) } else { view.linear_colour() };
-        Reply::png(&image)
+        if error { Reply::png(&error_image(&view.colour, &truth)) } else { Reply::encoded_png(&view.colour) }
             .with("X-Render-Seconds", format!("{seconds:.4}"))
             .with("X-PSNR", score(psnr(&opaque, &truth, mask.as_deref())))
             .with("X-SSIM", score(ssim(&opaque, &truth, mask.as_deref())))
     }
 }
 
-fn decoded(p: [f32; 4]) -> [f32; 4] {
-    [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]
-}
-
-/// Depth in false colour (turbo), near to far over the depths this view saw; black where the
+/// Depth in false colour (turbo, display-encoded), near to far over the depths this view saw; black where the
 /// rays hit nothing.
 fn depth_colours(view: &RenderedView) -> Image {
     let (w, h) = view.colour.dimensions();
@@ -164,7 +167,7 @@ fn depth_colours(view: &RenderedView) -> Image {
         .map(|(&d, p)| {
             if d > 0.0 && p[3] > 0.5 {
                 let [r, g, b] = turbo(1.0 - (d - near) / span);
-                decoded([r, g, b, 1.0])
+                [r, g, b, 1.0]
             } else {
                 [0.0, 0.0, 0.0, 1.0]
             }

@@ -135,8 +135,13 @@ fn info(args: &ViewArgs, loaded: &LoadedModel, dataset: Option<&Dataset>) -> Val
         "radius": view.radius,
         "up": [0.0, 0.0, 1.0],
         "background": background,
-        // Scene units per dataset unit (1 unless a capture was normalised).
-        "scale": view.frame.map_or(1.0, |n| n.scale),
+        // How the model's frame maps back to the dataset's (a capture's normalisation), for
+        // the camera paths the page saves: p_dataset = rotation · p / scale + centre.
+        "to_dataset": view.frame.map(|n| json!({
+            "rotation": glam::DMat3::from_quat(n.rotation.inverse()).transpose().to_cols_array(),
+            "centre": n.centre.to_array(),
+            "scale": n.scale,
+        })),
         "dataset": dataset.map(|d| d.root.display().to_string()),
         "cameras": cameras,
     })

@@ -9,19 +9,24 @@ const overlay = $('overlay');
 const truthCanvas = $('truth');
 
 // How long the camera must rest before the full-resolution frame is asked for, and how long
-// a coarse frame may take (its size adapts to the renderer's measured speed).
+// a frame may take to render while it moves: 15 frames/s, with two requests in flight (the
+// coarse frame's size adapts to the renderer's measured speed).
 const REST_MS = 150;
-const COARSE_SECONDS = 0.06;
+const COARSE_SECONDS = 1 / 15;
 
 let info = null;
 const cam = { target: [0, 0, 0], yaw: 0, pitch: 0.5, dist: 4, fov: 40 };
 const lens = { aperture: 0, focus: 4, rays: 16 };
-const view = { depth: false, frustums: true, error: false, snapped: null, width: 200, height: 200 };
+const view = { depth: false, frustums: true, error: false, snapped: null, fixed: null, width: 200, height: 200 };
+const keyframes = [];
 
 let version = 0;          // bumped by every change of what should be on screen
 let lastChange = 0;       // when the camera last moved
 let shown = { version: -1, full: false };
-let inFlight = false;
+let requested = { version: -1, full: false };
+let inFlight = 0;
+let sequence = 0;         // requests in the order sent; an older reply never replaces a newer one
+let shownSequence = 0;
 let secondsPerPixel = 2e-6;
 const frameTimes = [];
 const frameLog = [];      // every frame shown: when, its size, render and round-trip seconds
@@ -61,12 +66,14 @@ function fromRowMajor(m) {
   return { right: [m[0], m[4], m[8]], up: [m[1], m[5], m[9]], back: [m[2], m[6], m[10]], eye: [m[3], m[7], m[11]] };
 }
 
-// The camera on screen: a snapped dataset camera exactly, else the orbit camera.
+// The camera on screen: a snapped dataset camera exactly, a fixed pose (a keyframe, a frame of
+// the path's preview), else the orbit camera.
 function currentCamera() {
   if (view.snapped) {
     const c = view.snapped;
     return { b: fromRowMajor(c.c2w), fov: c.fov_y_degrees, width: c.width, height: c.height };
   }
+  if (view.fixed) return { b: fromRowMajor(view.fixed.c2w), fov: view.fixed.fov, width: view.width, height: view.height };
   return { b: basis(), fov: cam.fov, width: view.width, height: view.height };
 }
 
@@ -89,6 +96,7 @@ function changed(moved) {
 
 function moveCamera(f) {
   if (view.snapped) unsnap(true);
+  if (view.fixed) { orbitFrom(fromRowMajor(view.fixed.c2w)); cam.fov = view.fixed.fov; view.fixed = null; stopPreview(); }
   f();
   cam.pitch = Math.max(-1.55, Math.min(1.55, cam.pitch));
   changed(true);
@@ -101,6 +109,8 @@ function reset() {
   cam.pitch = 0.45;
   cam.fov = info.fov_y_degrees;
   $('fov').value = cam.fov;
+  view.fixed = null;
+  stopPreview();
   unsnap(false);
   changed(true);
 }
@@ -151,10 +161,14 @@ async function requestFrame() {
     const h = Math.max(8, Math.round(c.height * s));
     url = renderUrl(c, w, h, full, view.depth ? 'depth' : 'colour');
   }
-  inFlight = true;
+  inFlight++;
+  const mine = ++sequence;
+  requested = { version: wanted, full };
   try {
     const started = performance.now();
     const { bitmap, headers } = await fetchImage(url);
+    if (mine < shownSequence) return;
+    shownSequence = mine;
     const seconds = parseFloat(headers.get('X-Render-Seconds') || '0');
     const pixels = bitmap.width * bitmap.height;
     const withLens = full && lens.aperture > 0 && !view.snapped;
@@ -174,7 +188,7 @@ async function requestFrame() {
     $('message').textContent = String(e.message || e);
     shown = { version: wanted, full: true };
   } finally {
-    inFlight = false;
+    inFlight--;
   }
 }
 
@@ -182,11 +196,14 @@ function tick() {
   requestAnimationFrame(tick);
   while (frameTimes.length && performance.now() - frameTimes[0] > 1000) frameTimes.shift();
   showStats();
-  if (!info || inFlight) return;
-  if (shown.version === version && shown.full) return;
+  if (!info) return;
   const resting = performance.now() - lastChange >= REST_MS;
-  // A coarse frame of this very camera is on screen: wait for rest before refining it.
-  if (shown.version === version && !resting) return;
+  // On screen or on its way already: a full frame of this camera, or while it moves a coarse one.
+  const covers = (frame) => frame.version === version && (frame.full || !resting);
+  if (covers(shown) || covers(requested)) return;
+  // While the camera moves two requests are in flight, so the server renders the next frame
+  // while the browser receives and draws the last; at rest, one.
+  if (inFlight >= (resting ? 1 : 2)) return;
   requestFrame();
 }
 
@@ -463,6 +480,159 @@ function setupControls() {
   });
 }
 
+// ---- camera paths -------------------------------------------------------------------------
+// Rotation matrix (row-major 3×3 inside a row-major 4×4) to a unit quaternion [x, y, z, w].
+function quaternion(m) {
+  const [a, b, c, d, e, f, g, h, i] = [m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]];
+  const t = a + e + i;
+  let q;
+  if (t > 0) { const s = 2 * Math.sqrt(t + 1); q = [(h - f) / s, (c - g) / s, (d - b) / s, s / 4]; }
+  else if (a > e && a > i) { const s = 2 * Math.sqrt(1 + a - e - i); q = [s / 4, (b + d) / s, (c + g) / s, (h - f) / s]; }
+  else if (e > i) { const s = 2 * Math.sqrt(1 + e - a - i); q = [(b + d) / s, s / 4, (f + h) / s, (c - g) / s]; }
+  else { const s = 2 * Math.sqrt(1 + i - a - e); q = [(c + g) / s, (f + h) / s, s / 4, (d - b) / s]; }
+  const n = Math.hypot(...q);
+  return q.map((v) => v / n);
+}
+
+function rotation([x, y, z, w]) {
+  return [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+          2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+          2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)];
+}
+
+function slerp(a, b, t) {
+  let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+  if (d < 0) { b = b.map((v) => -v); d = -d; }
+  if (d > 0.9995) { const q = a.map((v, k) => v + t * (b[k] - v)); const n = Math.hypot(...q); return q.map((v) => v / n); }
+  const theta = Math.acos(d);
+  const s = Math.sin(theta);
+  return a.map((v, k) => (Math.sin((1 - t) * theta) * v + Math.sin(t * theta) * b[k]) / s);
+}
+
+// Catmull-Rom through the keyframes' positions, the rotations slerped, field of view and lens
+// linear, segments of equal time.
+function pathFrames(count) {
+  const n = keyframes.length;
+  const at = (k) => keyframes[Math.max(0, Math.min(n - 1, k))];
+  const position = (k) => [at(k).c2w[3], at(k).c2w[7], at(k).c2w[11]];
+  const frames = [];
+  for (let j = 0; j < count; j++) {
+    const u = n === 1 || count === 1 ? 0 : (j / (count - 1)) * (n - 1);
+    const k = Math.min(Math.floor(u), n - 2 < 0 ? 0 : n - 2);
+    const t = n === 1 ? 0 : u - k;
+    const [p0, p1, p2, p3] = [position(k - 1), position(k), position(k + 1), position(k + 2)];
+    const p = [0, 1, 2].map((c) => 0.5 * (2 * p1[c] + (-p0[c] + p2[c]) * t + (2 * p0[c] - 5 * p1[c] + 4 * p2[c] - p3[c]) * t * t
+      + (-p0[c] + 3 * p1[c] - 3 * p2[c] + p3[c]) * t * t * t));
+    const r = rotation(slerp(quaternion(at(k).c2w), quaternion(at(k + 1).c2w), t));
+    const mix = (key) => at(k)[key] + t * (at(k + 1)[key] - at(k)[key]);
+    frames.push({ c2w: [r[0], r[1], r[2], p[0], r[3], r[4], r[5], p[1], r[6], r[7], r[8], p[2], 0, 0, 0, 1],
+                  fov: mix('fov'), aperture: mix('aperture'), focus: mix('focus') });
+  }
+  return frames;
+}
+
+// A pose (row-major) and lengths from the model's frame into the dataset's.
+function toDataset(frame) {
+  const d = info.to_dataset;
+  if (!d) return frame;
+  const R = d.rotation;
+  const m = frame.c2w;
+  const mul = (row, col) => R[3 * row] * m[col] + R[3 * row + 1] * m[4 + col] + R[3 * row + 2] * m[8 + col];
+  const c2w = [];
+  for (let row = 0; row < 3; row++) {
+    c2w.push(mul(row, 0), mul(row, 1), mul(row, 2), mul(row, 3) / d.scale + d.centre[row]);
+  }
+  c2w.push(0, 0, 0, 1);
+  return { ...frame, c2w, aperture: frame.aperture / d.scale, focus: frame.focus / d.scale };
+}
+
+function cameraPathJson() {
+  const seconds = Math.max(0.1, parseFloat($('seconds').value) || 4);
+  const fps = Math.max(1, parseFloat($('pathFps').value) || 30);
+  const count = keyframes.length === 1 ? 1 : Math.max(2, Math.round(seconds * fps));
+  const aspect = view.width / view.height;
+  const entry = (f) => {
+    const g = toDataset(f);
+    const e = { camera_to_world: g.c2w, fov: g.fov, aspect };
+    if (g.aperture > 0) { e.aperture_radius = g.aperture; e.focus_distance = g.focus; }
+    return e;
+  };
+  return {
+    camera_type: 'perspective', render_width: view.width, render_height: view.height, fps, seconds,
+    smoothness_value: 0.5, is_cycle: false, crop: null,
+    keyframes: keyframes.map((k) => { const g = toDataset(k); return { matrix: g.c2w, fov: g.fov, aspect,
+      override_transition_enabled: false, override_transition_sec: null }; }),
+    camera_path: pathFrames(count).map(entry),
+  };
+}
+
+function showKeyframes() {
+  const list = $('keys');
+  list.textContent = '';
+  keyframes.forEach((k, i) => {
+    const row = document.createElement('div');
+    const label = document.createElement('span');
+    label.textContent = `${i + 1}. fov ${k.fov.toFixed(1)}°` + (k.aperture > 0 ? ` · lens ${k.aperture.toFixed(3)} @ ${k.focus.toFixed(2)}` : '');
+    label.title = 'go to this keyframe';
+    label.addEventListener('click', () => { stopPreview(); goTo(k); });
+    const remove = document.createElement('button');
+    remove.textContent = '×';
+    remove.title = 'remove';
+    remove.addEventListener('click', () => { keyframes.splice(i, 1); showKeyframes(); });
+    row.append(label, remove);
+    list.append(row);
+  });
+}
+
+function goTo(frame) {
+  if (view.snapped) unsnap(false);
+  view.fixed = { c2w: frame.c2w, fov: frame.fov };
+  lens.aperture = frame.aperture;
+  $('aperture').value = frame.aperture;
+  $('apertureOut').textContent = frame.aperture.toFixed(3);
+  setFocus(frame.focus);
+  changed(true);
+}
+
+let previewTimer = null;
+function stopPreview() {
+  if (previewTimer) clearInterval(previewTimer);
+  previewTimer = null;
+  $('preview').textContent = 'Preview';
+}
+
+function preview() {
+  if (previewTimer) { stopPreview(); return; }
+  if (keyframes.length < 2) { $('message').textContent = 'a path needs two keyframes'; return; }
+  const fps = Math.max(1, parseFloat($('pathFps').value) || 30);
+  const frames = pathFrames(Math.max(2, Math.round((parseFloat($('seconds').value) || 4) * fps)));
+  let j = 0;
+  $('preview').textContent = 'Stop';
+  previewTimer = setInterval(() => {
+    if (j >= frames.length) { stopPreview(); return; }
+    goTo(frames[j++]);
+  }, 1000 / fps);
+}
+
+function setupPath() {
+  $('addKey').addEventListener('click', () => {
+    const c = currentCamera();
+    keyframes.push({ c2w: rowMajor(c.b), fov: c.fov, aperture: lens.aperture, focus: lens.focus });
+    showKeyframes();
+  });
+  $('clearKeys').addEventListener('click', () => { keyframes.length = 0; stopPreview(); showKeyframes(); });
+  $('preview').addEventListener('click', preview);
+  $('savePath').addEventListener('click', () => {
+    if (!keyframes.length) { $('message').textContent = 'add a keyframe first'; return; }
+    const blob = new Blob([JSON.stringify(cameraPathJson(), null, 1)], { type: 'application/json' });
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(blob);
+    a.download = 'camera_path.json';
+    a.click();
+    URL.revokeObjectURL(a.href);
+  });
+}
+
 async function main() {
   try {
     const response = await fetch('/api/info');
@@ -479,6 +649,7 @@ async function main() {
   cam.fov = info.fov_y_degrees;
   setupControls();
   setupInput();
+  setupPath();
   resizeCanvases(view.width, view.height);
   reset();
   requestAnimationFrame(tick);
