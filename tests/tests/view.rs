@@ -17,26 +17,34 @@ use lucid_tests::{lucid_bin, lucid_in, temp_dir};
 struct Viewer {
     child: Child,
     port: u16,
+    /// The rest of its output (kept open: a closed pipe would fail its last lines).
+    stdout: BufReader<std::process::ChildStdout>,
 }
 
 impl Viewer {
     fn start(dir: &Path, checkpoint: &str) -> Self {
+        Self::spawn(dir, &["view", checkpoint, "--dataset", "ds", "--port", "0"])
+    }
+
+    /// Runs `lucid ARGS` and waits for the URL it prints.
+    fn spawn(dir: &Path, args: &[&str]) -> Self {
         let mut child = Command::new(lucid_bin())
-            .args(["view", checkpoint, "--dataset", "ds", "--port", "0"])
+            .args(args)
             .current_dir(dir)
             .env("LUCID_LOG", "warn")
             .stdout(Stdio::piped())
             .spawn()
             .unwrap();
         let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        while !line.contains("http://") && out.read_line(&mut line).unwrap() > 0 {}
         let port = line
             .split("http://127.0.0.1:")
             .nth(1)
             .and_then(|rest| rest.split('/').next())
             .and_then(|p| p.parse().ok())
             .unwrap_or_else(|| panic!("no URL in {line:?}"));
-        Self { child, port }
+        Self { child, port, stdout: out }
     }
 
     /// Sends `request` (a whole request head, `{host}` replaced) and returns status, headers
@@ -220,4 +228,42 @@ fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
     assert!(statuses.iter().all(|s| *s == 200 || *s == 503), "{statuses:?}");
     assert!(statuses.iter().filter(|s| **s == 200).count() >= 5, "{statuses:?}");
     assert_eq!(viewer.get("/api/info").status, 200);
+}
+
+/// `lucid train ... --view`: the page follows the run (its step and loss), renders the model as
+/// it is, and the run trains the steps it was asked for.
+#[test]
+fn a_training_run_is_viewed_while_it_trains() {
+    let dir = temp_dir();
+    let d = dir.path();
+    lucid_in(d, &["gen", "object", "-o", "ds", "--views", "24,2,2", "--res", "32", "--spp", "8", "--seed", "5"])
+        .success();
+    let viewer =
+        Viewer::spawn(d, &["train", "splat", "ds", "-o", "run", "--steps", "1500", "--no-eval", "--view", "0"]);
+    let info: serde_json::Value = serde_json::from_slice(&viewer.get("/api/info").body).unwrap();
+    assert_eq!((info["live"].as_bool(), info["kind"].as_str()), (Some(true), Some("splat")));
+    let status = || -> serde_json::Value { serde_json::from_slice(&viewer.get("/api/status").body).unwrap() };
+    let first = status()["step"].as_u64().unwrap();
+    // A render of the model as it is now, served between steps.
+    let reply = viewer.get(&format!("/api/render?{}", query(&novel_camera())));
+    assert_eq!(reply.png(d, "live.png").dimensions(), (40, 30));
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let mut later = status();
+    while later["step"].as_u64().unwrap() < 100 && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        later = status();
+    }
+    let step = later["step"].as_u64().unwrap();
+    assert!(step > first, "the run goes on: step {first}, then {step}");
+    assert!(later["loss"].as_f64().unwrap() > 0.0, "{later}");
+    assert!(!later["losses"].as_array().unwrap().is_empty(), "{later}");
+    let mut viewer = viewer;
+    let mut rest = String::new();
+    viewer.stdout.read_to_string(&mut rest).unwrap();
+    assert!(viewer.child.wait().unwrap().success(), "the run ends as without the viewer: {rest}");
+    assert!(rest.contains("trained 3D Gaussian splats 1500 steps"), "{rest}");
+    let log = std::fs::read_to_string(d.join("run/train_log.csv")).unwrap();
+    assert!(log.lines().last().unwrap().starts_with("1500,"), "all 1500 steps trained");
+    // The relighting head has no view of its own.
+    lucid_in(d, &["train", "relight", "ds", "-o", "r", "--view"]).failure(&["--view"]);
 }

@@ -436,6 +436,11 @@ pub struct TrainModelArgs {
     /// Splits and scale of captures.
     #[command(flatten)]
     pub data: DatasetArgs,
+    /// NeRF and splats: serve the viewer's page while training, on 127.0.0.1:PORT (7007
+    /// without a value; 0: any free port): the model as it trains, the step, the loss and the
+    /// held-out PSNR. Its renders and scores take at most 6.5 % of the wall time from training.
+    #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "7007")]
+    pub view: Option<u16>,
 }
 
 /// What every `lucid train` shares: the budget, resuming, the output folder's handling.

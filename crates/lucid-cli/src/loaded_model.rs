@@ -1,20 +1,32 @@
-//! Trained view models (NeRF, splats) behind one interface, so `lucid eval` and `lucid render` read
-//! every checkpoint the trainers write.
+//! Trained view models (NeRF, splats) behind one interface, so `lucid eval`, `lucid render` and
+//! `lucid view` read every checkpoint the trainers write, and a viewer can show a model while
+//! it trains.
 
 use std::path::Path;
 
 use anyhow::bail;
 use glam::Vec3;
+use lucid_nerf::trainer::NerfTrainer;
 use lucid_scene::dataset::images::ViewInfo;
 use lucid_scene::evaluation::ViewModel;
+use lucid_splat::trainer::SplatTrainer;
 use lucid_splat::view::SplatRenderer;
 
 /// A checkpoint, loaded for rendering.
 pub enum LoadedModel {
     /// A hash-grid NeRF.
-    Nerf(Box<lucid_nerf::trainer::NerfTrainer>),
+    Nerf(Box<NerfTrainer>),
     /// A splat cloud.
-    Splat(Box<lucid_splat::trainer::SplatTrainer>),
+    Splat(Box<SplatTrainer>),
+}
+
+/// A model borrowed from a checkpoint or from a run that is training it.
+#[derive(Clone, Copy)]
+pub enum ModelRef<'a> {
+    /// A hash-grid NeRF.
+    Nerf(&'a NerfTrainer),
+    /// A splat cloud.
+    Splat(&'a SplatTrainer),
 }
 
 impl LoadedModel {
@@ -33,8 +45,46 @@ impl LoadedModel {
         })
     }
 
+    /// The model, borrowed.
+    pub fn model(&self) -> ModelRef<'_> {
+        match self {
+            Self::Nerf(t) => ModelRef::Nerf(t),
+            Self::Splat(t) => ModelRef::Splat(t),
+        }
+    }
+
     /// Training steps taken.
     pub fn step(&self) -> usize {
+        self.model().step()
+    }
+
+    /// How the training cameras saw the scene.
+    pub fn view(&self) -> ViewInfo {
+        self.model().view()
+    }
+
+    /// The centre of the scene (the target of orbit paths).
+    pub fn centre(&self) -> Vec3 {
+        self.model().centre()
+    }
+
+    /// Runs `f` with a renderer of the model.
+    pub fn with_renderer<R>(&self, f: impl FnOnce(&dyn ViewModel) -> R) -> R {
+        self.model().with_renderer(f)
+    }
+}
+
+impl ModelRef<'_> {
+    /// `nerf` or `splat`, as checkpoints name their kind.
+    pub fn kind(self) -> &'static str {
+        match self {
+            Self::Nerf(_) => lucid_nerf::checkpoint::NERF_KIND,
+            Self::Splat(_) => lucid_splat::checkpoint::SPLAT_KIND,
+        }
+    }
+
+    /// Training steps taken.
+    pub fn step(self) -> usize {
         match self {
             Self::Nerf(t) => t.step,
             Self::Splat(t) => t.step,
@@ -42,7 +92,7 @@ impl LoadedModel {
     }
 
     /// How the training cameras saw the scene.
-    pub fn view(&self) -> ViewInfo {
+    pub fn view(self) -> ViewInfo {
         match self {
             Self::Nerf(t) => t.view,
             Self::Splat(t) => t.view,
@@ -50,7 +100,7 @@ impl LoadedModel {
     }
 
     /// The centre of the scene (the target of orbit paths).
-    pub fn centre(&self) -> Vec3 {
+    pub fn centre(self) -> Vec3 {
         match self {
             Self::Nerf(t) => {
                 let (lo, hi) = t.grid.bounds();
@@ -60,8 +110,8 @@ impl LoadedModel {
         }
     }
 
-    /// Runs `f` with a renderer of the model.
-    pub fn with_renderer<R>(&self, f: impl FnOnce(&dyn ViewModel) -> R) -> R {
+    /// Runs `f` with a renderer of the model as it is now.
+    pub fn with_renderer<R>(self, f: impl FnOnce(&dyn ViewModel) -> R) -> R {
         match self {
             Self::Nerf(t) => {
                 let model = t.eval_model();

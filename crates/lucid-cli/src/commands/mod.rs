@@ -17,7 +17,7 @@ mod train_itm;
 mod train_nerf;
 mod train_relight;
 mod train_splat;
-mod view;
+pub mod view;
 
 use anyhow::{Context, bail};
 

@@ -84,6 +84,9 @@ fn report_geometry(test: &OlatSet, trainer: &SplatTrainer) -> anyhow::Result<()>
 }
 
 pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
+    if args.view.is_some() {
+        anyhow::bail!("--view shows NeRF and splat runs; the relighting head has no view of its own to serve");
+    }
     let start = training::start(&args.run);
     let config = match start {
         Start::Resume => None,

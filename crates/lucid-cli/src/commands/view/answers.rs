@@ -82,7 +82,7 @@ impl ViewedScene<'_> {
                 Err(reply) => reply,
             },
             Route::Compare { frame, error } => self.compare(*frame, *error),
-            Route::Page | Route::Script | Route::Info => Reply::text(500, "answered without the model"),
+            Route::Page | Route::Script | Route::Info | Route::Status => Reply::text(500, "answered without the model"),
         }
     }
 

@@ -1,19 +1,21 @@
 //! `lucid view CHECKPOINT [--dataset DIR] [--port 7007] [--host 127.0.0.1]`: a local web page
 //! that shows the model rendered by Lucid on this CPU, to fly around, refocus and compare with
-//! the dataset's images.
+//! the dataset's images; and the same page for a model while it trains (`lucid train nerf|splat
+//! --view`, see [`live`]).
 //!
-//! One thread owns the model and renders one request at a time from a short queue; the
-//! server's connection threads parse requests and answer the page, its script and the model's
-//! description themselves. Everything the page sends and receives is in the model's frame
-//! (a capture's normalised coordinates), as the dataset's cameras are once read.
+//! The server's connection threads parse requests and answer the page, its script, the
+//! model's description and a run's progress themselves; requests that need the model wait in
+//! a short queue for the thread that owns it. Everything the page sends and receives is in the
+//! model's frame (a capture's normalised coordinates), as the dataset's cameras are once read.
 
 mod answers;
+pub mod live;
 mod requests;
 mod server;
 
 use std::net::TcpListener;
-use std::sync::Arc;
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError, channel, sync_channel};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, TrySendError, channel, sync_channel};
+use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
 use lucid_scene::{Dataset, PinholeCamera};
@@ -22,20 +24,14 @@ use serde_json::{Value, json};
 use self::answers::{Reply, ViewedScene};
 use self::requests::Route;
 use crate::cli::ViewArgs;
-use crate::loaded_model::LoadedModel;
+use crate::loaded_model::{LoadedModel, ModelRef};
 
 const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/viewer.js");
 
-/// Renders waiting for the model thread; a request beyond them gets 503 (the page keeps one
-/// in flight, so only several pages at once fill it).
+/// Renders waiting for a checkpoint's model thread; a request beyond them gets 503 (the page
+/// keeps at most two in flight, so only several pages at once fill it).
 const RENDER_QUEUE: usize = 4;
-
-/// A request for the model thread, and where its reply goes.
-struct Job {
-    route: Route,
-    reply: std::sync::mpsc::Sender<Reply>,
-}
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let loaded = LoadedModel::load(&args.checkpoint)?;
@@ -46,75 +42,107 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
             Dataset::open_with(dir, &args.data.options()).with_context(|| format!("reading dataset {}", dir.display()))
         })
         .transpose()?;
-    let info = Arc::new(info(&args, &loaded, dataset.as_ref()).to_string());
-    let listener = TcpListener::bind((args.host.as_str(), args.port))
-        .with_context(|| format!("cannot listen on {}:{}", args.host, args.port))?;
-    let addr = listener.local_addr()?;
-    if !addr.ip().is_loopback() {
-        tracing::warn!("serving on {addr}: every machine that reaches this address can view the model");
-    }
-    let (jobs, queue) = sync_channel::<Job>(RENDER_QUEUE);
-    let handler = move |url: &str| handle(url, &info, &jobs);
-    server::spawn(listener, server::loopback_hosts(addr), Arc::new(handler))?;
-    let shown = if addr.ip().is_unspecified() { format!("127.0.0.1:{}", addr.port()) } else { addr.to_string() };
-    println!("lucid view: http://{shown}/  ({} model, step {}; Ctrl-C stops)", kind(&loaded), loaded.step());
+    let info = info(&args.checkpoint.display().to_string(), loaded.model(), dataset.as_ref(), false);
+    let server = ViewServer::start(&args.host, args.port, info, None, RENDER_QUEUE)?;
+    println!("lucid view: {}  ({} model, step {}; Ctrl-C stops)", server.url, loaded.model().kind(), loaded.step());
     use std::io::Write;
     std::io::stdout().flush()?;
-    loaded.with_renderer(|renderer| serve_renders(&ViewedScene { renderer, dataset: dataset.as_ref() }, queue));
+    loaded.with_renderer(|renderer| {
+        let scene = ViewedScene { renderer, dataset: dataset.as_ref() };
+        // Until the server is gone (never, short of the process ending).
+        while let Ok(job) = server.queue.recv() {
+            let reply = scene.answer(&job.route);
+            job.answer(reply);
+        }
+    });
     Ok(())
 }
 
-/// The model thread: answers queued requests in order until the server is gone.
-fn serve_renders(scene: &ViewedScene, queue: Receiver<Job>) {
-    for job in queue {
-        let reply = scene.answer(&job.route);
-        // The connection may have closed while it waited.
-        let _ = job.reply.send(reply);
+/// A request for the thread that owns the model, and where its reply goes.
+pub struct Job {
+    route: Route,
+    reply: Sender<Reply>,
+}
+
+impl Job {
+    /// Sends the reply (the connection may have closed while it waited: nothing to do then).
+    fn answer(self, reply: Reply) {
+        let _ = self.reply.send(reply);
     }
 }
 
-/// Answers one URL on a connection thread: pages and the description at once, the rest
-/// through the model thread's queue.
-fn handle(url: &str, info: &str, jobs: &SyncSender<Job>) -> Reply {
+/// A listening viewer: its URL and the queue of requests that need the model.
+pub struct ViewServer {
+    /// `http://host:port/`.
+    pub url: String,
+    queue: Receiver<Job>,
+}
+
+impl ViewServer {
+    /// Listens on `host:port` and serves from connection threads: the page, `info`, and
+    /// `status` where given (a training run's progress, updated by its owner); model requests
+    /// wait in a queue of `queue` for [`Self::queue`]'s reader.
+    pub fn start(
+        host: &str,
+        port: u16,
+        info: Value,
+        status: Option<Arc<Mutex<Value>>>,
+        queue: usize,
+    ) -> anyhow::Result<Self> {
+        let listener = TcpListener::bind((host, port)).with_context(|| format!("cannot listen on {host}:{port}"))?;
+        let addr = listener.local_addr()?;
+        if !addr.ip().is_loopback() {
+            tracing::warn!("serving on {addr}: every machine that reaches this address can view the model");
+        }
+        let (jobs, waiting) = sync_channel::<Job>(queue);
+        let info = info.to_string();
+        let handler = move |url: &str| handle(url, &info, status.as_deref(), &jobs);
+        server::spawn(listener, server::loopback_hosts(addr), Arc::new(handler))?;
+        let shown = if addr.ip().is_unspecified() { format!("127.0.0.1:{}", addr.port()) } else { addr.to_string() };
+        Ok(Self { url: format!("http://{shown}/"), queue: waiting })
+    }
+}
+
+/// Answers one URL on a connection thread: pages, the description and the progress at once,
+/// the rest through the model thread's queue.
+fn handle(url: &str, info: &str, status: Option<&Mutex<Value>>, jobs: &SyncSender<Job>) -> Reply {
     let route = match requests::parse(url) {
         Ok(route) => route,
         Err(refusal) => return Reply::text(refusal.status, &refusal.reason),
     };
-    let text = |content_type: &'static str, body: &str| Reply {
+    let text = |content_type: &'static str, body: String| Reply {
         status: 200,
         content_type,
-        body: body.as_bytes().to_vec(),
+        body: body.into_bytes(),
         headers: vec![],
     };
     match route {
-        Route::Page => text("text/html; charset=utf-8", PAGE),
-        Route::Script => text("text/javascript; charset=utf-8", SCRIPT),
-        Route::Info => text("application/json", info),
+        Route::Page => text("text/html; charset=utf-8", PAGE.into()),
+        Route::Script => text("text/javascript; charset=utf-8", SCRIPT.into()),
+        Route::Info => text("application/json", info.into()),
+        Route::Status => match status {
+            Some(status) => text("application/json", status.lock().map(|s| s.to_string()).unwrap_or_default()),
+            None => Reply::text(404, "not a training run (lucid train nerf|splat ... --view shows one)"),
+        },
         route => {
             let (reply, answer) = channel();
             match jobs.try_send(Job { route, reply }) {
-                Ok(()) => answer.recv().unwrap_or_else(|_| Reply::text(500, "the renderer stopped")),
-                Err(TrySendError::Full(_)) => Reply::text(503, &format!("{RENDER_QUEUE} renders are already waiting"))
-                    .with("Retry-After", "1".into()),
-                Err(TrySendError::Disconnected(_)) => Reply::text(500, "the renderer stopped"),
+                Ok(()) => answer.recv().unwrap_or_else(|_| Reply::text(503, "the model is no longer served")),
+                Err(TrySendError::Full(_)) => {
+                    Reply::text(503, "the renderer is busy; try again").with("Retry-After", "1".into())
+                }
+                Err(TrySendError::Disconnected(_)) => Reply::text(503, "the model is no longer served"),
             }
         }
     }
 }
 
-fn kind(loaded: &LoadedModel) -> &'static str {
-    match loaded {
-        LoadedModel::Nerf(_) => "nerf",
-        LoadedModel::Splat(_) => "splat",
-    }
-}
-
 /// What the page needs to know before its first render: the model's kind, how its training
 /// cameras saw it, and the dataset's cameras (poses row-major, as requests send them).
-fn info(args: &ViewArgs, loaded: &LoadedModel, dataset: Option<&Dataset>) -> Value {
-    let view = loaded.view();
+fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> Value {
+    let view = model.view();
     let fov_y = 2.0 * ((0.5 * view.fov_x).tan() * view.height as f32 / view.width as f32).atan();
-    let background = loaded.with_renderer(|r| r.background());
+    let background = model.with_renderer(|r| r.background());
     let cameras: Vec<Value> = dataset
         .map(|d| {
             d.splits
@@ -125,13 +153,14 @@ fn info(args: &ViewArgs, loaded: &LoadedModel, dataset: Option<&Dataset>) -> Val
         })
         .unwrap_or_default();
     json!({
-        "checkpoint": args.checkpoint.display().to_string(),
-        "kind": kind(loaded),
-        "step": loaded.step(),
+        "checkpoint": name,
+        "kind": model.kind(),
+        "step": model.step(),
+        "live": live,
         "width": view.width,
         "height": view.height,
         "fov_y_degrees": fov_y.to_degrees(),
-        "centre": loaded.centre().to_array(),
+        "centre": model.centre().to_array(),
         "radius": view.radius,
         "up": [0.0, 0.0, 1.0],
         "background": background,

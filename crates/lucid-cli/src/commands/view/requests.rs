@@ -24,6 +24,8 @@ pub enum Route {
     Script,
     /// The model, its frame and the dataset's cameras, as JSON.
     Info,
+    /// A training run's progress (step, losses, held-out PSNR over time), as JSON.
+    Status,
     /// A render at a camera.
     Render(ViewRequest),
     /// The depth under one pixel of a camera (click to focus).
@@ -103,6 +105,7 @@ pub fn parse(url: &str) -> Result<Route, Refusal> {
         "/" | "/index.html" => Ok(Route::Page),
         "/viewer.js" => Ok(Route::Script),
         "/api/info" => Ok(Route::Info),
+        "/api/status" => Ok(Route::Status),
         "/api/render" => Ok(Route::Render(query.view()?)),
         "/api/depth" => {
             let view = query.view()?;

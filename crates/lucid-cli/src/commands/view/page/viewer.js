@@ -27,6 +27,7 @@ let requested = { version: -1, full: false };
 let inFlight = 0;
 let sequence = 0;         // requests in the order sent; an older reply never replaces a newer one
 let shownSequence = 0;
+let retryAt = 0;          // after a 503, when to ask again
 let secondsPerPixel = 2e-6;
 const frameTimes = [];
 const frameLog = [];      // every frame shown: when, its size, render and round-trip seconds
@@ -185,6 +186,8 @@ async function requestFrame() {
     shown = { version: wanted, full };
     $('message').textContent = '';
   } catch (e) {
+    // A busy renderer (a training step goes first) is asked again; anything else is shown.
+    if (String(e.message).startsWith('503')) { requested = { version: -1, full: false }; retryAt = performance.now() + 250; return; }
     $('message').textContent = String(e.message || e);
     shown = { version: wanted, full: true };
   } finally {
@@ -192,18 +195,21 @@ async function requestFrame() {
   }
 }
 
+// Polls often while frames are wanted, rarely at rest: an idle page costs the CPU (which the
+// renderer, or a training run, shares) almost nothing.
 function tick() {
-  requestAnimationFrame(tick);
+  const busy = inFlight > 0 || shown.version !== version || !shown.full || performance.now() - lastChange < 1000;
+  setTimeout(tick, busy ? 15 : 100);
   while (frameTimes.length && performance.now() - frameTimes[0] > 1000) frameTimes.shift();
   showStats();
-  if (!info) return;
+  if (!info || performance.now() < retryAt) return;
   const resting = performance.now() - lastChange >= REST_MS;
   // On screen or on its way already: a full frame of this camera, or while it moves a coarse one.
   const covers = (frame) => frame.version === version && (frame.full || !resting);
   if (covers(shown) || covers(requested)) return;
   // While the camera moves two requests are in flight, so the server renders the next frame
   // while the browser receives and draws the last; at rest, one.
-  if (inFlight >= (resting ? 1 : 2)) return;
+  if (inFlight >= (resting || info.live ? 1 : 2)) return;
   requestFrame();
 }
 
@@ -319,10 +325,13 @@ function showStats() {
   const fps = frameTimes.length;
   const r = lastRender;
   const kind = r.full ? 'full' : 'coarse';
-  $('stats').textContent =
+  const text =
     `${fps} frames/s · last ${kind} frame ${r.width}×${r.height}\n` +
     `render ${(1000 * r.seconds).toFixed(0)} ms · round trip ${(1000 * (r.round || 0)).toFixed(0)} ms` +
     (r.samples ? ` · ${r.samples.toLocaleString()} samples` : '');
+  // Only a change is written: a page at rest lays nothing out again (the CPU is the renderer's).
+  const stats = $('stats');
+  if (stats.textContent !== text) stats.textContent = text;
 }
 
 // ---- input --------------------------------------------------------------------------------
@@ -633,6 +642,62 @@ function setupPath() {
   });
 }
 
+// ---- a run in training ---------------------------------------------------------------------
+let trainedStep = -1;
+let lastRefresh = 0;
+
+async function pollStatus() {
+  let status;
+  try {
+    const response = await fetch('/api/status');
+    status = await response.json();
+  } catch (e) {
+    $('trainingStats').textContent = 'training has ended (the server is gone); view the checkpoint with lucid view';
+    return;
+  }
+  const last = status.held_out && status.held_out.length ? status.held_out[status.held_out.length - 1] : null;
+  $('trainingStats').textContent = `step ${status.step} · ${(status.seconds || 0).toFixed(0)} s · loss ${(status.loss || 0).toFixed(5)}` +
+    (status.psnr ? ` · batch ${status.psnr.toFixed(2)} dB` : '') +
+    (last ? `\nheld-out (${status.held_out_split}) ${last.psnr.toFixed(2)} dB at step ${last.step}` : '') +
+    `\nviewer's share of the time ${(100 * (status.view_share || 0)).toFixed(1)} %`;
+  drawCurve(status);
+  // At rest, the frame follows the training every few seconds.
+  const now = performance.now();
+  if (status.step !== trainedStep && now - lastRefresh > 3000 && now - lastChange > REST_MS && !view.snapped) {
+    trainedStep = status.step;
+    lastRefresh = now;
+    changed(false);
+  }
+  setTimeout(pollStatus, 1000);
+}
+
+function drawCurve(status) {
+  const c = $('curve');
+  const g = c.getContext('2d');
+  g.clearRect(0, 0, c.width, c.height);
+  const line = (status.losses || []).filter((p) => p.psnr > 0);
+  const dots = status.held_out || [];
+  const all = line.map((p) => p.psnr).concat(dots.map((p) => p.psnr));
+  if (!all.length) return;
+  const t1 = Math.max(1, ...line.map((p) => p.seconds), ...dots.map((p) => p.seconds));
+  const lo = Math.floor(Math.min(...all));
+  const hi = Math.ceil(Math.max(...all));
+  const x = (t) => 40 + (c.width - 50) * t / t1;
+  const y = (v) => c.height - 20 - (c.height - 30) * (v - lo) / Math.max(1, hi - lo);
+  g.fillStyle = '#8b8f99';
+  g.font = '20px system-ui';
+  g.fillText(`${hi} dB`, 2, 20);
+  g.fillText(`${lo}`, 2, c.height - 20);
+  g.fillText(`${t1.toFixed(0)} s`, c.width - 60, c.height - 2);
+  g.strokeStyle = '#8b8f99';
+  g.lineWidth = 2;
+  g.beginPath();
+  line.forEach((p, i) => (i ? g.lineTo(x(p.seconds), y(p.psnr)) : g.moveTo(x(p.seconds), y(p.psnr))));
+  g.stroke();
+  g.fillStyle = '#5fb3ff';
+  for (const p of dots) { g.beginPath(); g.arc(x(p.seconds), y(p.psnr), 5, 0, 2 * Math.PI); g.fill(); }
+}
+
 async function main() {
   try {
     const response = await fetch('/api/info');
@@ -652,7 +717,11 @@ async function main() {
   setupPath();
   resizeCanvases(view.width, view.height);
   reset();
-  requestAnimationFrame(tick);
+  tick();
+  if (info.live) {
+    $('training').hidden = false;
+    pollStatus();
+  }
 }
 
 main();

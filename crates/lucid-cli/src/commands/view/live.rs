@@ -1,0 +1,227 @@
+//! `lucid train nerf|splat ... --view [PORT]`: the viewer's page served while the model trains,
+//! showing the model as it is now, the step, the loss and the held-out PSNR over time.
+//!
+//! The training loop calls [`LiveView`] after every step (an observer of the run, whose time
+//! the run does not count as training time). It answers at most one waiting request per step,
+//! and only when the time it expects the answer to take (the last cost per pixel of a render,
+//! times the request's pixels) fits in what [`VIEW_SHARE`] of the wall time since training
+//! began leaves unspent; otherwise the request waits and the steps go first. So one expensive
+//! render (an early NeRF marches through a grid that is still all occupied) is not followed by
+//! another until training has earned it. Every [`HELD_OUT_EVERY`] seconds, within a share of
+//! its own ([`SCORE_SHARE`]), it scores a few held-out views.
+
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use lucid_burn::run::{ModelError, Observer, StepReport};
+use lucid_nerf::run::NerfRun;
+use lucid_scene::dataset::images::ImageSet;
+use lucid_scene::evaluation::evaluate;
+use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split};
+use lucid_splat::run::SplatRun;
+use serde_json::{Value, json};
+
+use super::answers::ViewedScene;
+use super::requests::Route;
+use super::{Job, ViewServer, info};
+use crate::loaded_model::ModelRef;
+
+/// The most of the wall time the viewer may take from training for the page's renders, and
+/// for the held-out scores: 6.5 % together, leaving room under the 10 % the viewer may cost
+/// for the browser, which shares the CPU. Separate shares, so neither starves the other.
+pub const VIEW_SHARE: f64 = 0.05;
+/// See [`VIEW_SHARE`].
+pub const SCORE_SHARE: f64 = 0.015;
+/// Seconds between held-out scores.
+pub const HELD_OUT_EVERY: f64 = 10.0;
+/// Held-out views scored each time (spread over the validation split, else the test split).
+const HELD_OUT_VIEWS: usize = 3;
+/// Seconds between probes of the cost of a render, and the probe's side in pixels.
+const PROBE_EVERY: f64 = 5.0;
+const PROBE_SIDE: u32 = 32;
+
+fn pixels_of(set: &ImageSet) -> f64 {
+    (0..set.len()).map(|i| set.size(i)).map(|(w, h)| (w * h) as f64).sum()
+}
+
+/// The live viewer of one training run.
+pub struct LiveView<'a> {
+    server: ViewServer,
+    dataset: &'a Dataset,
+    status: Arc<Mutex<Value>>,
+    held_out: Option<(Split, ImageSet)>,
+    /// A request taken from the queue, waiting for the share to allow it.
+    pending: Option<Job>,
+    /// Seconds per rendered pixel, measured by the last probe, and when.
+    seconds_per_pixel: Option<f64>,
+    probed: Option<Instant>,
+    started: Instant,
+    /// Seconds spent rendering for the page, and scoring, since `started`.
+    spent: f64,
+    spent_scoring: f64,
+    last_score: Option<Instant>,
+    scores: Vec<Value>,
+    losses: Vec<Value>,
+    /// Mean loss and batch PSNR since the last point of `losses`.
+    window: (f64, f64, usize),
+}
+
+impl<'a> LiveView<'a> {
+    /// Starts serving `model` (as it is before its first step) on 127.0.0.1:`port`.
+    pub fn start(port: u16, name: &str, model: ModelRef, dataset: &'a Dataset) -> anyhow::Result<Self> {
+        let status = Arc::new(Mutex::new(json!({ "step": model.step(), "training": true })));
+        let info = info(name, model, Some(dataset), true);
+        // One request waits; more are told to retry: the page keeps one in flight.
+        let server = ViewServer::start("127.0.0.1", port, info, Some(status.clone()), 1)?;
+        let held_out = [Split::Val, Split::Test].into_iter().find_map(|split| {
+            let frames = dataset.frames(split);
+            let n = frames.len().min(HELD_OUT_VIEWS);
+            let chosen: Vec<_> = (0..n).map(|k| frames[k * frames.len() / n].clone()).collect();
+            let set = ImageSet::load(&chosen).ok()?;
+            (!set.is_empty()).then_some((split, set))
+        });
+        println!("viewing the run at {} (the page follows the training)", server.url);
+        Ok(Self {
+            server,
+            dataset,
+            status,
+            held_out,
+            pending: None,
+            seconds_per_pixel: None,
+            probed: None,
+            started: Instant::now(),
+            spent: 0.0,
+            spent_scoring: 0.0,
+            last_score: Some(Instant::now()),
+            scores: Vec::new(),
+            losses: Vec::new(),
+            window: (0.0, 0.0, 0),
+        })
+    }
+
+    fn observe(&mut self, model: ModelRef, report: &StepReport, elapsed: f64) {
+        let step = model.step();
+        let (loss, psnr, n) = &mut self.window;
+        *loss += f64::from(report.loss);
+        *psnr += report.psnr.map_or(0.0, f64::from);
+        *n += 1;
+        if step.is_multiple_of(25) {
+            let (loss, psnr, n) = std::mem::take(&mut self.window);
+            let n = n.max(1) as f64;
+            self.losses.push(json!({ "step": step, "seconds": elapsed, "loss": loss / n, "psnr": psnr / n }));
+        }
+        let wall = self.started.elapsed().as_secs_f64();
+        let mut changed = step.is_multiple_of(10);
+        if self.pending.is_none() {
+            self.pending = self.server.queue.try_recv().ok();
+        }
+        let began = Instant::now();
+        // The cost of a render changes as the model learns (an early NeRF marches through a
+        // grid that is still all occupied): a small probe keeps the estimate current.
+        if self.probed.is_none_or(|t| t.elapsed().as_secs_f64() >= PROBE_EVERY)
+            && (self.pending.is_some() || self.score_is_due())
+            && VIEW_SHARE * wall - self.spent > 0.0
+        {
+            self.seconds_per_pixel = self.probe(model);
+            self.probed = Some(Instant::now());
+            self.spent += began.elapsed().as_secs_f64();
+            return;
+        }
+        let per_pixel = self.seconds_per_pixel.unwrap_or(f64::INFINITY);
+        let score_cost = self.held_out.as_ref().map_or(0.0, |(_, set)| per_pixel * pixels_of(set));
+        let render_cost = self.pending.as_ref().map(|job| self.pixels(&job.route) * per_pixel);
+        if self.score_is_due() && score_cost <= SCORE_SHARE * wall - self.spent_scoring {
+            self.score(model, elapsed);
+            self.last_score = Some(Instant::now());
+            self.spent_scoring += began.elapsed().as_secs_f64();
+            changed = true;
+        } else if let Some(cost) = render_cost
+            && cost <= VIEW_SHARE * wall - self.spent
+            && let Some(job) = self.pending.take()
+        {
+            let dataset = Some(self.dataset);
+            let reply = model.with_renderer(|renderer| ViewedScene { renderer, dataset }.answer(&job.route));
+            job.answer(reply);
+            self.spent += began.elapsed().as_secs_f64();
+        }
+        if !changed {
+            return;
+        }
+        if let Ok(mut status) = self.status.lock() {
+            *status = json!({
+                "training": true,
+                "step": step,
+                "seconds": elapsed,
+                "loss": report.loss,
+                "psnr": report.psnr,
+                "losses": self.losses,
+                "held_out": self.scores,
+                "held_out_split": self.held_out.as_ref().map(|(s, _)| s.name()),
+                "view_share": (self.spent + self.spent_scoring) / self.started.elapsed().as_secs_f64().max(1e-9),
+            });
+        }
+    }
+
+    /// Pixels a request renders: its cost in units of the last render's cost per pixel.
+    fn pixels(&self, route: &Route) -> f64 {
+        let area = |k: lucid_scene::Intrinsics| f64::from(k.width) * f64::from(k.height);
+        match route {
+            Route::Render(view) => {
+                let rays = if view.lens.is_some() { view.lens_rays } else { 1 };
+                area(view.camera.intrinsics) * rays as f64
+            }
+            Route::Depth { .. } => 1.0,
+            Route::Compare { frame, .. } => {
+                self.dataset.frames(frame.split).get(frame.index).map_or(0.0, |f| area(f.camera.intrinsics))
+            }
+            _ => 0.0,
+        }
+    }
+
+    fn score_is_due(&self) -> bool {
+        self.held_out.is_some() && self.last_score.is_none_or(|t| t.elapsed().as_secs_f64() >= HELD_OUT_EVERY)
+    }
+
+    fn score(&mut self, model: ModelRef, elapsed: f64) {
+        let Some((_, set)) = &self.held_out else { return };
+        let (_, summary) = model.with_renderer(|renderer| evaluate(renderer, set, None, |_, _, _, _| {}));
+        self.scores.push(json!({ "step": model.step(), "seconds": elapsed, "psnr": summary.psnr }));
+    }
+
+    /// Seconds per pixel of a small render at a held-out camera (or at the first dataset
+    /// camera), whose middle it covers.
+    fn probe(&self, model: ModelRef) -> Option<f64> {
+        let camera = match &self.held_out {
+            Some((_, set)) => set.cameras[0],
+            None => self.dataset.all_frames().next()?.camera,
+        };
+        let k = camera.intrinsics;
+        let side = PROBE_SIDE.min(k.width).min(k.height);
+        let middle = Intrinsics {
+            width: side,
+            height: side,
+            cx: k.cx - (k.width - side) as f32 / 2.0,
+            cy: k.cy - (k.height - side) as f32 / 2.0,
+            ..k
+        };
+        let started = Instant::now();
+        model.with_renderer(|renderer| {
+            renderer.render_view(&PinholeCamera::new(middle, camera.camera_to_world), None, 1, 0)
+        });
+        Some(started.elapsed().as_secs_f64() / f64::from(side * side))
+    }
+}
+
+impl Observer<NerfRun<'_>> for LiveView<'_> {
+    fn after_step(&mut self, run: &NerfRun<'_>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
+        self.observe(ModelRef::Nerf(&run.trainer), report, elapsed);
+        Ok(())
+    }
+}
+
+impl Observer<SplatRun<'_>> for LiveView<'_> {
+    fn after_step(&mut self, run: &SplatRun<'_>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
+        self.observe(ModelRef::Splat(&run.trainer), report, elapsed);
+        Ok(())
+    }
+}
