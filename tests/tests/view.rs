@@ -181,6 +181,49 @@ fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
     let written = lucid_scene::camera_path::read_camera_path(&d.join("pull/camera_path.json")).unwrap();
     assert_eq!(written.lenses, path.lenses);
 
+    // The web export: its four files, 52 bytes a Gaussian; not of a NeRF; never over a folder
+    // it did not write, and over its own earlier export.
+    lucid_in(d, &["export", "web", "splat/checkpoint.lucid", "-o", "web"]).success();
+    let scene: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("web/scene.json")).unwrap()).unwrap();
+    let count = scene["count"].as_u64().unwrap();
+    assert!(count > 100, "{scene}");
+    assert_eq!(std::fs::metadata(d.join("web/splats.bin")).unwrap().len(), count * 52);
+    assert!(std::fs::read_to_string(d.join("web/index.html")).unwrap().contains("splats.js"));
+    assert!(std::fs::read_to_string(d.join("web/splats.js")).unwrap().contains("webgl2"));
+    lucid_in(d, &["export", "web", "splat/checkpoint.lucid", "-o", "web"]).success();
+    lucid_in(d, &["export", "web", "nerf/checkpoint.lucid", "-o", "web2"]).failure(&["nerf", "splat"]);
+    assert!(!d.join("web2").exists());
+    std::fs::create_dir_all(d.join("mine")).unwrap();
+    std::fs::write(d.join("mine/notes.txt"), "keep").unwrap();
+    lucid_in(d, &["export", "web", "splat/checkpoint.lucid", "-o", "mine"])
+        .failure(&["mine", "not a Lucid web export"]);
+    assert_eq!(std::fs::read_to_string(d.join("mine/notes.txt")).unwrap(), "keep");
+
+    // A video format that needs ffmpeg fails before anything is written when there is none;
+    // where there is one, it encodes the frames.
+    let video = |path_var: &str, out: &str, file: &str| {
+        Command::new(lucid_bin())
+            .args(["render", "splat/checkpoint.lucid", "--camera-path", "pull.json", "-o", out, "--video", file])
+            .current_dir(d)
+            .env("PATH", path_var)
+            .output()
+            .unwrap()
+    };
+    let empty = d.join("no-programs");
+    std::fs::create_dir_all(&empty).unwrap();
+    let refused = video(empty.to_str().unwrap(), "nothing", "clip.mp4");
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success() && stderr.contains("ffmpeg") && stderr.contains("clip.mp4"), "{stderr}");
+    assert!(!d.join("nothing").exists() && !d.join("clip.mp4").exists(), "nothing is written");
+    let system_path = std::env::var("PATH").unwrap_or_default();
+    if system_path.split(':').any(|dir| Path::new(dir).join("ffmpeg").is_file()) {
+        let encoded = video(&system_path, "encoded", "clip.mp4");
+        assert!(encoded.status.success(), "{}", String::from_utf8_lossy(&encoded.stderr));
+        let bytes = std::fs::read(d.join("clip.mp4")).unwrap();
+        assert_eq!(&bytes[4..8], b"ftyp", "an MP4 file");
+    }
+
     let viewer = Viewer::start(d, "splat/checkpoint.lucid");
     let page = viewer.get("/");
     assert!(page.status == 200 && page.text().contains("/viewer.js"), "{}", page.text());

@@ -60,6 +60,35 @@ pub enum Command {
     /// Serve an interactive viewer of a trained model (NeRF or splats) on a local web page:
     /// orbit, zoom, refocus, depth, and comparison with a dataset's images.
     View(ViewArgs),
+    /// Export a trained model for use outside Lucid: `web` writes 3D Gaussian splats as a
+    /// self-contained WebGL2 page.
+    Export(ExportArgs),
+}
+
+/// `lucid export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// What to export.
+    #[command(subcommand)]
+    pub command: ExportCommand,
+}
+
+/// Export formats.
+#[derive(Debug, Subcommand)]
+pub enum ExportCommand {
+    /// A splat checkpoint as a folder any static web server serves (index.html, splats.js,
+    /// splats.bin, scene.json), rendered in the browser with WebGL2.
+    Web(ExportWebArgs),
+}
+
+/// `lucid export web`.
+#[derive(Debug, Args)]
+pub struct ExportWebArgs {
+    /// A splat checkpoint written by `lucid train splat`.
+    pub checkpoint: PathBuf,
+    /// The folder to write (new, empty, or an earlier export, which is replaced).
+    #[arg(short, long)]
+    pub output: PathBuf,
 }
 
 /// `lucid view`.
@@ -761,8 +790,9 @@ pub struct RenderArgs {
     /// there too.
     #[arg(long, conflicts_with_all = ["radius", "elevation"])]
     pub camera_path: Option<PathBuf>,
-    /// Checkpoints: also write the frames as one animated PNG (.png or .apng), looping at the
-    /// path's frame rate (30 fps for an orbit or spiral).
+    /// Checkpoints: also write the frames as one video at the path's frame rate (30 fps for an
+    /// orbit or spiral): an animated PNG (.png or .apng, looping), or with ffmpeg on PATH an
+    /// .mp4, .webm, .mkv or .mov.
     #[arg(long)]
     pub video: Option<PathBuf>,
     /// Checkpoints: frames along the path (the output is a folder of numbered PNGs and depth EXRs).

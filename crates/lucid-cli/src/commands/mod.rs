@@ -5,6 +5,7 @@ mod convert;
 pub mod demo;
 mod envmap;
 mod eval;
+mod export_web;
 pub mod generate;
 mod hdr;
 mod info;
@@ -48,6 +49,9 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Relight(args) => relight::run(args),
         Command::Envmap(args) => envmap::run(args),
         Command::View(args) => view::run(args),
+        Command::Export(args) => match args.command {
+            crate::cli::ExportCommand::Web(args) => export_web::run(args),
+        },
     }
 }
 

@@ -1,6 +1,7 @@
 //! `lucid render SCENE.toml -o OUT`: path-traces a scene file.
 
 mod model;
+mod video;
 
 use std::path::{Path, PathBuf};
 

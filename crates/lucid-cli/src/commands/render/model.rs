@@ -1,10 +1,11 @@
 //! `lucid render CHECKPOINT -o DIR --path orbit|spiral --frames N`, or `--camera-path FILE`:
 //! novel views of a trained model along a camera path, as numbered PNGs with depth EXRs and
 //! the path itself (`camera_path.json`, nerfstudio's format), and with `--video FILE` as one
-//! animated PNG that plays in a browser. `--aperture A --focus D`
-//! renders through a thin lens (depth of field) by averaging rays over the aperture; without
-//! them, each camera of a path renders through its own lens where the path gives one
-//! (`aperture_radius`, `focus_distance`: a refocus pull keyed in `lucid view`).
+//! animated PNG that plays in a browser, or a video ffmpeg encodes (see [`super::video`]).
+//! `--aperture A --focus D` renders through a thin lens (depth of field) by averaging rays
+//! over the aperture; without them, each camera of a path renders through its own lens where
+//! the path gives one (`aperture_radius`, `focus_distance`: a refocus pull keyed in `lucid
+//! view`).
 //!
 //! A model trained on a capture works in normalised coordinates; everything this command
 //! reads and writes is in the dataset's own frame instead (camera paths, depth, and the
@@ -60,20 +61,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         None => path_lenses,
     };
 
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
     let k = cameras[0].intrinsics;
+    // Before anything is written: a video format without its encoder fails here.
     let mut video = match &args.video {
         Some(path) => {
-            let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-            if !matches!(ext.as_deref(), Some("png" | "apng")) {
-                bail!("{}: --video writes an animated PNG (.png or .apng)", path.display());
-            }
-            let (w, h) = (k.width as usize, k.height as usize);
-            Some(lucid_image::io::AnimatedPng::create(path, w, h, cameras.len() as u32, fps)?)
+            Some(super::video::Video::create(path, k.width as usize, k.height as usize, cameras.len() as u32, fps)?)
         }
         None => None,
     };
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
     let bar = crate::progress::bar(cameras.len() as u64, "rendering");
     let started = std::time::Instant::now();
     loaded.with_renderer(|renderer| -> anyhow::Result<()> {
@@ -98,7 +95,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     if let Some(video) = video {
-        video.finish()?;
+        video.finish(&args.output, fps)?;
     }
     let seconds = started.elapsed().as_secs_f64();
     let path_file = args.output.join("camera_path.json");

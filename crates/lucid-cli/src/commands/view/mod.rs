@@ -141,7 +141,6 @@ fn handle(url: &str, info: &str, status: Option<&Mutex<Value>>, jobs: &SyncSende
 /// cameras saw it, and the dataset's cameras (poses row-major, as requests send them).
 fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> Value {
     let view = model.view();
-    let fov_y = 2.0 * ((0.5 * view.fov_x).tan() * view.height as f32 / view.width as f32).atan();
     let background = model.with_renderer(|r| r.background());
     let cameras: Vec<Value> = dataset
         .map(|d| {
@@ -152,18 +151,12 @@ fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> V
                 .collect()
         })
         .unwrap_or_default();
-    json!({
+    let mut info = view_fields(model, background);
+    let more = json!({
         "checkpoint": name,
         "kind": model.kind(),
         "step": model.step(),
         "live": live,
-        "width": view.width,
-        "height": view.height,
-        "fov_y_degrees": fov_y.to_degrees(),
-        "centre": model.centre().to_array(),
-        "radius": view.radius,
-        "up": [0.0, 0.0, 1.0],
-        "background": background,
         // How the model's frame maps back to the dataset's (a capture's normalisation), for
         // the camera paths the page saves: p_dataset = rotation · p / scale + centre.
         "to_dataset": view.frame.map(|n| json!({
@@ -173,6 +166,27 @@ fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> V
         })),
         "dataset": dataset.map(|d| d.root.display().to_string()),
         "cameras": cameras,
+    });
+    if let (Some(info), Value::Object(more)) = (info.as_object_mut(), more) {
+        info.extend(more);
+    }
+    info
+}
+
+/// How the model's training cameras saw it, for a page's first camera (shared with the web
+/// export's `scene.json`): image size, vertical field of view, the scene's centre and the
+/// cameras' distance from it, up, and the background.
+pub fn view_fields(model: ModelRef, background: [f32; 3]) -> Value {
+    let view = model.view();
+    let fov_y = 2.0 * ((0.5 * view.fov_x).tan() * view.height as f32 / view.width as f32).atan();
+    json!({
+        "width": view.width,
+        "height": view.height,
+        "fov_y_degrees": fov_y.to_degrees(),
+        "centre": model.centre().to_array(),
+        "radius": view.radius,
+        "up": [0.0, 0.0, 1.0],
+        "background": background,
     })
 }
 

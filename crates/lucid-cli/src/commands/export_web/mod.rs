@@ -1,0 +1,165 @@
+//! `lucid export web CHECKPOINT -o DIR`: a trained splat cloud as a self-contained web page
+//! (`index.html`, `splats.js`, `splats.bin`, `scene.json`) that any static file server
+//! serves and any WebGL2 browser renders, so a result can be shared without Lucid.
+//!
+//! `splats.bin` holds 52 bytes per Gaussian, little-endian: the centre as three f32, the
+//! standard deviations as three f16, the rotation quaternion `(w, x, y, z)` as four f16, the
+//! opacity (after its sigmoid) as one f16, and the colour's spherical harmonics to degree 1 as
+//! twelve f16 (the DC term's r, g, b, then coefficients 1 to 3, r, g, b each). Coordinates are
+//! the model's (a capture's normalised frame), as `lucid view` shows them. The folder is
+//! written under a temporary name and renamed into place; an existing folder is replaced only
+//! if it is an earlier export.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use half::f16;
+use lucid_splat::cloud::SplatCloud;
+use serde_json::{Value, json};
+
+use crate::cli::ExportWebArgs;
+use crate::loaded_model::LoadedModel;
+
+const PAGE: &str = include_str!("page/index.html");
+const SCRIPT: &str = include_str!("page/splats.js");
+/// Bytes per Gaussian in `splats.bin`.
+pub const BYTES_PER_SPLAT: usize = 52;
+/// What `scene.json` says wrote it: the mark of a folder this command may replace.
+const GENERATOR: &str = "lucid export web";
+
+pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
+    let loaded = LoadedModel::load(&args.checkpoint)?;
+    let LoadedModel::Splat(trainer) = &loaded else {
+        bail!(
+            "{}: a {} checkpoint; the web export draws 3D Gaussian splats (lucid train splat)",
+            args.checkpoint.display(),
+            loaded.model().kind()
+        );
+    };
+    let cloud = trainer.model.to_cloud();
+    let model = loaded.model();
+    let mut scene = super::view::view_fields(model, trainer.eval_settings().background);
+    let more = json!({
+        "generator": GENERATOR,
+        "version": env!("CARGO_PKG_VERSION"),
+        "checkpoint": args.checkpoint.display().to_string(),
+        "step": model.step(),
+        "count": cloud.len(),
+        "bytes_per_splat": BYTES_PER_SPLAT,
+        "sh_degree": 1,
+    });
+    if let (Some(scene), Value::Object(more)) = (scene.as_object_mut(), more) {
+        scene.extend(more);
+    }
+    write_folder(&args.output, &scene, &encode(&cloud))?;
+    println!(
+        "exported {} Gaussians ({:.1} MB) to {}: serve the folder (python3 -m http.server -d {}) and open it",
+        cloud.len(),
+        (cloud.len() * BYTES_PER_SPLAT) as f64 / 1e6,
+        args.output.display(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// `splats.bin` of a cloud (see the module's description).
+pub fn encode(cloud: &SplatCloud) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(cloud.len() * BYTES_PER_SPLAT);
+    let half = |bytes: &mut Vec<u8>, v: f32| bytes.extend(f16::from_f32(v).to_le_bytes());
+    for i in 0..cloud.len() {
+        for v in &cloud.means[3 * i..3 * i + 3] {
+            bytes.extend(v.to_le_bytes());
+        }
+        for v in &cloud.log_scales[3 * i..3 * i + 3] {
+            half(&mut bytes, v.exp());
+        }
+        let q = &cloud.rotations[4 * i..4 * i + 4];
+        let norm = q.iter().map(|v| v * v).sum::<f32>().sqrt().max(f32::MIN_POSITIVE);
+        for v in q {
+            half(&mut bytes, v / norm);
+        }
+        half(&mut bytes, 1.0 / (1.0 + (-cloud.opacities[i]).exp()));
+        for v in &cloud.sh_dc[3 * i..3 * i + 3] {
+            half(&mut bytes, *v);
+        }
+        let rest = lucid_splat::project::SH_REST;
+        for v in &cloud.sh_rest[rest * i..rest * i + 9] {
+            half(&mut bytes, *v);
+        }
+    }
+    bytes
+}
+
+/// Writes the four files into a sibling temporary folder and renames it to `out`, replacing
+/// an earlier export there (never another folder with files in it).
+fn write_folder(out: &Path, scene: &Value, splats: &[u8]) -> anyhow::Result<()> {
+    if out.exists() {
+        let empty = out.read_dir().map(|mut d| d.next().is_none()).unwrap_or(false);
+        if !empty && !is_export(out) {
+            bail!(
+                "{}: the folder holds files that are not a Lucid web export; choose a new or empty folder",
+                out.display()
+            );
+        }
+    }
+    let name = out.file_name().and_then(|n| n.to_str()).unwrap_or("web");
+    let sibling = |what: &str| out.with_file_name(format!(".{name}.{}.{what}", std::process::id()));
+    let tmp = sibling("tmp");
+    let written = (|| -> std::io::Result<()> {
+        std::fs::create_dir_all(&tmp)?;
+        std::fs::write(tmp.join("index.html"), PAGE)?;
+        std::fs::write(tmp.join("splats.js"), SCRIPT)?;
+        std::fs::write(tmp.join("splats.bin"), splats)?;
+        std::fs::write(tmp.join("scene.json"), serde_json::to_string_pretty(scene).expect("serialises"))
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e).with_context(|| format!("writing {}", tmp.display()));
+    }
+    let old: Option<PathBuf> = out.exists().then(|| sibling("old"));
+    if let Some(old) = &old {
+        std::fs::rename(out, old).with_context(|| format!("moving the earlier export {} aside", out.display()))?;
+    }
+    std::fs::rename(&tmp, out).with_context(|| format!("writing {}", out.display()))?;
+    if let Some(old) = old {
+        std::fs::remove_dir_all(&old).with_context(|| format!("removing the earlier export {}", old.display()))?;
+    }
+    Ok(())
+}
+
+/// Whether `dir` is an earlier export: its `scene.json` names this command as its writer.
+fn is_export(dir: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(dir.join("scene.json")) else { return false };
+    let Ok(scene) = serde_json::from_str::<Value>(&text) else { return false };
+    scene["generator"] == GENERATOR
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The bytes decode (as splats.js decodes them) to the cloud, to f16 precision.
+    #[test]
+    fn the_binary_layout_round_trips() {
+        let mut cloud = SplatCloud::default();
+        cloud.push(glam::Vec3::new(0.25, -1.5, 3.0), 0.02, 0.7, [0.9, 0.1, 0.4]);
+        cloud.push(glam::Vec3::new(-2.0, 0.5, 0.125), 0.5, 0.05, [0.2, 0.6, 0.3]);
+        cloud.rotations[4..8].copy_from_slice(&[2.0, 0.0, 2.0, 0.0]);
+        cloud.sh_rest[lucid_splat::project::SH_REST + 4] = 0.3;
+        let bytes = encode(&cloud);
+        assert_eq!(bytes.len(), 2 * BYTES_PER_SPLAT);
+        let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap());
+        let f16_at = |o: usize, k: usize| f16::from_le_bytes(bytes[o + 12 + 2 * k..o + 14 + 2 * k].try_into().unwrap());
+        let second = BYTES_PER_SPLAT;
+        assert_eq!([f32_at(second), f32_at(second + 4), f32_at(second + 8)], [-2.0, 0.5, 0.125]);
+        assert!((f16_at(0, 0).to_f32() - 0.02).abs() < 1e-5, "scale as a standard deviation");
+        let rotation: Vec<f32> = (3..7).map(|k| f16_at(second, k).to_f32()).collect();
+        let half_turn = std::f32::consts::FRAC_1_SQRT_2;
+        assert!((rotation[0] - half_turn).abs() < 1e-3 && (rotation[2] - half_turn).abs() < 1e-3, "{rotation:?}");
+        assert!((f16_at(0, 7).to_f32() - 0.7).abs() < 1e-3, "opacity after the sigmoid");
+        let dc = (f16_at(0, 8).to_f32() * lucid_splat::sh::C0) + 0.5;
+        assert!((dc - 0.9).abs() < 2e-3, "DC colour {dc}");
+        // Coefficient 2's green of the second splat (rest index 1·3 + 1 = 4).
+        assert!((f16_at(second, 8 + 3 + 4).to_f32() - 0.3).abs() < 1e-3);
+    }
+}
