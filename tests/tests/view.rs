@@ -290,6 +290,8 @@ fn a_training_run_is_viewed_while_it_trains() {
     // A render of the model as it is now, served between steps.
     let reply = viewer.get(&format!("/api/render?{}", query(&novel_camera())));
     assert_eq!(reply.png(d, "live.png").dimensions(), (40, 30));
+    let truth = viewer.get("/api/truth?split=val&index=1").png(d, "live_truth.png");
+    assert_eq!(truth.dimensions(), (32, 32));
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     let mut later = status();
     while later["step"].as_u64().unwrap() < 100 && std::time::Instant::now() < deadline {

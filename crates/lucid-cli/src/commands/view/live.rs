@@ -127,9 +127,12 @@ impl<'a> LiveView<'a> {
             self.spent += began.elapsed().as_secs_f64();
             return;
         }
+        // Before the first probe a render's cost is unknown (infinite); a request that renders
+        // nothing (a dataset image) costs nothing.
         let per_pixel = self.seconds_per_pixel.unwrap_or(f64::INFINITY);
-        let score_cost = self.held_out.as_ref().map_or(0.0, |(_, set)| per_pixel * pixels_of(set));
-        let render_cost = self.pending.as_ref().map(|job| self.pixels(&job.route) * per_pixel);
+        let cost = |pixels: f64| if pixels > 0.0 { pixels * per_pixel } else { 0.0 };
+        let score_cost = self.held_out.as_ref().map_or(0.0, |(_, set)| cost(pixels_of(set)));
+        let render_cost = self.pending.as_ref().map(|job| cost(self.pixels(&job.route)));
         if self.score_is_due() && score_cost <= SCORE_SHARE * wall - self.spent_scoring {
             self.score(model, elapsed);
             self.last_score = Some(Instant::now());
