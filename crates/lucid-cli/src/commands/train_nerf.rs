@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use lucid_burn::run::{NoObserver, Observer, RunFolder, Start, run};
+use lucid_burn::run::{NoObserver, RunFolder, Start, run};
 use lucid_nerf::checkpoint::{self, NERF_KIND};
 use lucid_nerf::config::NerfConfig;
 use lucid_nerf::data::ImageSet;
@@ -14,6 +14,7 @@ use lucid_nerf::trainer::NerfTrainer;
 use lucid_scene::Split;
 
 use crate::cli::TrainModelArgs;
+use crate::commands::view::live;
 use crate::loaded_model::ModelRef;
 use crate::training;
 
@@ -61,18 +62,8 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     );
     let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "nerf")?;
     let mut model = NerfRun { trainer, data: &data, held_out: Some(&dataset) };
-    let mut live = match args.view {
-        Some(port) => {
-            let name = format!("training {}", args.output.display());
-            Some(crate::commands::view::live::LiveView::start(port, &name, ModelRef::Nerf(&model.trainer), &dataset)?)
-        }
-        None => None,
-    };
-    let observer: &mut dyn Observer<NerfRun> = match &mut live {
-        Some(live) => live,
-        None => &mut NoObserver,
-    };
-    let summary = run(&mut model, &options, observer)?;
+    let mut live = live::for_run(args.view, &args.output, ModelRef::Nerf(&model.trainer), &dataset)?;
+    let summary = run(&mut model, &options, live::observer::<NerfRun>(&mut live, &mut NoObserver))?;
     training::print_summary(&summary, "a NeRF", &folder.checkpoint());
     Ok(())
 }

@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use lucid_burn::run::{NoObserver, Observer, RunFolder, Start, run};
+use lucid_burn::run::{NoObserver, RunFolder, Start, run};
 use lucid_scene::Split;
 use lucid_scene::dataset::images::ImageSet;
 use lucid_splat::checkpoint::{self, SPLAT_KIND};
@@ -14,6 +14,7 @@ use lucid_splat::run::SplatRun;
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
 
 use crate::cli::TrainModelArgs;
+use crate::commands::view::live;
 use crate::loaded_model::ModelRef;
 use crate::training;
 
@@ -67,18 +68,8 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "splat")?;
     let export = Some(folder.path("splats.ply"));
     let mut model = SplatRun { trainer, data: &data, held_out: Some(&dataset), export };
-    let mut live = match args.view {
-        Some(port) => {
-            let name = format!("training {}", args.output.display());
-            Some(crate::commands::view::live::LiveView::start(port, &name, ModelRef::Splat(&model.trainer), &dataset)?)
-        }
-        None => None,
-    };
-    let observer: &mut dyn Observer<SplatRun> = match &mut live {
-        Some(live) => live,
-        None => &mut NoObserver,
-    };
-    let summary = run(&mut model, &options, observer)?;
+    let mut live = live::for_run(args.view, &args.output, ModelRef::Splat(&model.trainer), &dataset)?;
+    let summary = run(&mut model, &options, live::observer::<SplatRun>(&mut live, &mut NoObserver))?;
     training::print_summary(&summary, "3D Gaussian splats", &folder.checkpoint());
     Ok(())
 }

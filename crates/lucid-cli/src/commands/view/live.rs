@@ -3,9 +3,9 @@
 //!
 //! The training loop calls [`LiveView`] after every step (an observer of the run, whose time
 //! the run does not count as training time). It answers at most one waiting request per step,
-//! and only when the time it expects the answer to take (the last cost per pixel of a render,
-//! times the request's pixels) fits in what [`VIEW_SHARE`] of the wall time since training
-//! began leaves unspent; otherwise the request waits and the steps go first. So one expensive
+//! and only when the time it expects the answer to take (the cost per pixel a small probe
+//! render measured, times the request's pixels) fits in what [`VIEW_SHARE`] of the wall time
+//! since training began leaves unspent; otherwise the request waits and the steps go first. So one expensive
 //! render (an early NeRF marches through a grid that is still all occupied) is not followed by
 //! another until training has earned it. Every [`HELD_OUT_EVERY`] seconds, within a share of
 //! its own ([`SCORE_SHARE`]), it scores a few held-out views.
@@ -13,7 +13,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use lucid_burn::run::{ModelError, Observer, StepReport};
+use lucid_burn::run::{ModelError, NoObserver, Observer, StepReport};
 use lucid_nerf::run::NerfRun;
 use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::evaluate;
@@ -64,6 +64,27 @@ pub struct LiveView<'a> {
     losses: Vec<Value>,
     /// Mean loss and batch PSNR since the last point of `losses`.
     window: (f64, f64, usize),
+}
+
+/// The live viewer `--view` asks for (none without it), of the run writing `output`.
+pub fn for_run<'a>(
+    port: Option<u16>,
+    output: &std::path::Path,
+    model: ModelRef,
+    dataset: &'a Dataset,
+) -> anyhow::Result<Option<LiveView<'a>>> {
+    port.map(|port| LiveView::start(port, &format!("training {}", output.display()), model, dataset)).transpose()
+}
+
+/// The run's observer: `live` where there is one, else one that does nothing.
+pub fn observer<'a, T>(live: &'a mut Option<LiveView<'_>>, none: &'a mut NoObserver) -> &'a mut dyn Observer<T>
+where
+    for<'l> LiveView<'l>: Observer<T>,
+{
+    match live {
+        Some(live) => live,
+        None => none,
+    }
 }
 
 impl<'a> LiveView<'a> {

@@ -10,7 +10,7 @@ use lucid_scene::{PinholeCamera, Split};
 pub const MAX_URL_BYTES: usize = 4096;
 /// The largest image side a render may ask for.
 pub const MAX_SIDE: u32 = 4096;
-/// The most pixels a render may ask for (an 2048² view).
+/// The most pixels a render may ask for (a 2048² view).
 pub const MAX_PIXELS: u64 = 2048 * 2048;
 /// The most rays per pixel over a thin lens.
 pub const MAX_LENS_RAYS: usize = 256;
