@@ -4,11 +4,13 @@
 //! The training loop calls [`LiveView`] after every step (an observer of the run, whose time
 //! the run does not count as training time). It answers at most one waiting request per step,
 //! and only when the time it expects the answer to take (the cost per pixel a small probe
-//! render measured, times the request's pixels) fits in what [`VIEW_SHARE`] of the wall time
-//! since training began leaves unspent; otherwise the request waits and the steps go first. So one expensive
-//! render (an early NeRF marches through a grid that is still all occupied) is not followed by
-//! another until training has earned it. Every [`HELD_OUT_EVERY`] seconds, within a share of
-//! its own ([`SCORE_SHARE`]), it scores a few held-out views.
+//! render measured, times the request's pixels) fits in the credit of its [`TimeShare`]: time
+//! earned at [`VIEW_SHARE`] of the wall time, banked only up to what the waiting request
+//! needs (or [`IDLE_BANK`] when none waits). Otherwise the request waits and the steps go
+//! first. So one expensive render (an early NeRF marches through a grid that is still all
+//! occupied) is not followed by another until training has earned it, and a page opened after
+//! an hour of training does not spend the hour's share in a burst. Every [`HELD_OUT_EVERY`]
+//! seconds, within a share of its own ([`SCORE_SHARE`]), it scores a few held-out views.
 
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -32,6 +34,9 @@ use crate::loaded_model::ModelRef;
 pub const VIEW_SHARE: f64 = 0.05;
 /// See [`VIEW_SHARE`].
 pub const SCORE_SHARE: f64 = 0.015;
+/// Seconds of credit a [`TimeShare`] keeps while nothing waits: a page opened late gets its
+/// first frames at once, but not a burst of frames paid for by the time it was closed.
+pub const IDLE_BANK: f64 = 0.25;
 /// Seconds between held-out scores.
 pub const HELD_OUT_EVERY: f64 = 10.0;
 /// Held-out views scored each time (spread over the validation split, else the test split).
@@ -42,6 +47,46 @@ const PROBE_SIDE: u32 = 32;
 
 fn pixels_of(set: &ImageSet) -> f64 {
     (0..set.len()).map(|i| set.size(i)).map(|(w, h)| (w * h) as f64).sum()
+}
+
+/// A share of the wall time for one kind of work: credit earned at `share` seconds per wall
+/// second, banked up to the larger of [`IDLE_BANK`] and the expected cost of what waits.
+#[derive(Debug)]
+struct TimeShare {
+    share: f64,
+    credit: f64,
+    earned_until: Instant,
+    /// Seconds spent in all.
+    spent: f64,
+}
+
+impl TimeShare {
+    fn new(share: f64) -> Self {
+        Self { share, credit: 0.0, earned_until: Instant::now(), spent: 0.0 }
+    }
+
+    /// Adds what the wall time since the last call earned; `waiting` is the expected cost of
+    /// the work that waits for it (0 when none does).
+    fn earn(&mut self, now: Instant, waiting: f64) {
+        let cap = if waiting.is_finite() { waiting.max(IDLE_BANK) } else { IDLE_BANK };
+        self.credit = (self.credit + self.share * (now - self.earned_until).as_secs_f64()).min(cap);
+        self.earned_until = now;
+    }
+
+    fn allows(&self, cost: f64) -> bool {
+        cost <= self.credit
+    }
+
+    /// Pays the wall time since `began` out of the credit (which may go below zero: the
+    /// estimate was short, and the steps get the difference back before the next job).
+    fn pay(&mut self, began: Instant) {
+        self.pay_seconds(began.elapsed().as_secs_f64());
+    }
+
+    fn pay_seconds(&mut self, seconds: f64) {
+        self.credit -= seconds;
+        self.spent += seconds;
+    }
 }
 
 /// The live viewer of one training run.
@@ -56,9 +101,9 @@ pub struct LiveView<'a> {
     seconds_per_pixel: Option<f64>,
     probed: Option<Instant>,
     started: Instant,
-    /// Seconds spent rendering for the page, and scoring, since `started`.
-    spent: f64,
-    spent_scoring: f64,
+    /// Time for the page's renders (and probes), and for the held-out scores.
+    viewing: TimeShare,
+    scoring: TimeShare,
     last_score: Option<Instant>,
     scores: Vec<Value>,
     losses: Vec<Value>,
@@ -111,8 +156,8 @@ impl<'a> LiveView<'a> {
             seconds_per_pixel: None,
             probed: None,
             started: Instant::now(),
-            spent: 0.0,
-            spent_scoring: 0.0,
+            viewing: TimeShare::new(VIEW_SHARE),
+            scoring: TimeShare::new(SCORE_SHARE),
             last_score: Some(Instant::now()),
             scores: Vec::new(),
             losses: Vec::new(),
@@ -131,42 +176,47 @@ impl<'a> LiveView<'a> {
             let n = n.max(1) as f64;
             self.losses.push(json!({ "step": step, "seconds": elapsed, "loss": loss / n, "psnr": psnr / n }));
         }
-        let wall = self.started.elapsed().as_secs_f64();
         let mut changed = step.is_multiple_of(10);
         if self.pending.is_none() {
             self.pending = self.server.queue.try_recv().ok();
-        }
-        let began = Instant::now();
-        // The cost of a render changes as the model learns (an early NeRF marches through a
-        // grid that is still all occupied): a small probe keeps the estimate current.
-        if self.probed.is_none_or(|t| t.elapsed().as_secs_f64() >= PROBE_EVERY)
-            && (self.pending.is_some() || self.score_is_due())
-            && VIEW_SHARE * wall - self.spent > 0.0
-        {
-            self.seconds_per_pixel = self.probe(model);
-            self.probed = Some(Instant::now());
-            self.spent += began.elapsed().as_secs_f64();
-            return;
         }
         // Before the first probe a render's cost is unknown (infinite); a request that renders
         // nothing (a dataset image) costs nothing.
         let per_pixel = self.seconds_per_pixel.unwrap_or(f64::INFINITY);
         let cost = |pixels: f64| if pixels > 0.0 { pixels * per_pixel } else { 0.0 };
+        let score_due = self.score_is_due();
         let score_cost = self.held_out.as_ref().map_or(0.0, |(_, set)| cost(pixels_of(set)));
         let render_cost = self.pending.as_ref().map(|job| cost(self.pixels(&job.route)));
-        if self.score_is_due() && score_cost <= SCORE_SHARE * wall - self.spent_scoring {
+        let now = Instant::now();
+        self.viewing.earn(now, render_cost.unwrap_or(0.0));
+        self.scoring.earn(now, if score_due { score_cost } else { 0.0 });
+        // The cost of a render changes as the model learns (an early NeRF marches through a
+        // grid that is still all occupied): a small probe keeps the estimate current.
+        if self.probed.is_none_or(|t| t.elapsed().as_secs_f64() >= PROBE_EVERY)
+            && (self.pending.is_some() || score_due)
+            && self.viewing.credit > 0.0
+        {
+            let began = Instant::now();
+            self.seconds_per_pixel = self.probe(model);
+            self.viewing.pay(began);
+            self.probed = Some(Instant::now());
+            return;
+        }
+        if score_due && self.scoring.allows(score_cost) {
+            let began = Instant::now();
             self.score(model, elapsed);
+            self.scoring.pay(began);
             self.last_score = Some(Instant::now());
-            self.spent_scoring += began.elapsed().as_secs_f64();
             changed = true;
         } else if let Some(cost) = render_cost
-            && cost <= VIEW_SHARE * wall - self.spent
+            && self.viewing.allows(cost)
             && let Some(job) = self.pending.take()
         {
+            let began = Instant::now();
             let dataset = Some(self.dataset);
             let reply = model.with_renderer(|renderer| ViewedScene { renderer, dataset }.answer(&job.route));
             job.answer(reply);
-            self.spent += began.elapsed().as_secs_f64();
+            self.viewing.pay(began);
         }
         if !changed {
             return;
@@ -181,7 +231,7 @@ impl<'a> LiveView<'a> {
                 "losses": self.losses,
                 "held_out": self.scores,
                 "held_out_split": self.held_out.as_ref().map(|(s, _)| s.name()),
-                "view_share": (self.spent + self.spent_scoring) / self.started.elapsed().as_secs_f64().max(1e-9),
+                "view_share": (self.viewing.spent + self.scoring.spent) / self.started.elapsed().as_secs_f64().max(1e-9),
             });
         }
     }
@@ -247,5 +297,39 @@ impl Observer<SplatRun<'_>> for LiveView<'_> {
     fn after_step(&mut self, run: &SplatRun<'_>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
         self.observe(ModelRef::Splat(&run.trainer), report, elapsed);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+
+    #[test]
+    fn a_time_share_banks_only_what_waits() {
+        let mut share = TimeShare::new(0.05);
+        let start = share.earned_until;
+        let at = |seconds: u64| start + Duration::from_secs(seconds);
+        // An hour with nothing waiting leaves the idle bank, not 180 s of renders.
+        share.earn(at(3600), 0.0);
+        assert_eq!(share.credit, IDLE_BANK);
+        assert!(share.allows(IDLE_BANK) && !share.allows(0.3));
+        // A 2-second render waits 40 s at 5 %, from the idle bank on, and is then allowed.
+        share.earn(at(3630), 2.0);
+        assert!((share.credit - (IDLE_BANK + 1.5)).abs() < 1e-9, "{}", share.credit);
+        assert!(!share.allows(2.0));
+        share.earn(at(3640), 2.0);
+        assert_eq!(share.credit, 2.0);
+        assert!(share.allows(2.0));
+        // A render that took longer than expected leaves a debt the next one waits out.
+        share.pay_seconds(2.5);
+        assert!((share.credit + 0.5).abs() < 1e-9 && share.spent == 2.5);
+        share.earn(at(3650), 0.1);
+        assert!((share.credit - 0.0).abs() < 1e-9, "{}", share.credit);
+        assert!(!share.allows(0.1));
+        // An unknown cost (before the first probe) banks no more than the idle bank.
+        share.earn(at(7200), f64::INFINITY);
+        assert_eq!(share.credit, IDLE_BANK);
     }
 }
