@@ -122,9 +122,17 @@ fn check_model(dir: &Path, checkpoint: &str, out: &str) {
     let served = viewer.get(&format!("/api/render?{}", query(&camera)));
     let seconds: f64 = served.header("x-render-seconds").unwrap().parse().unwrap();
     assert!(seconds > 0.0);
+    let png_bytes = served.body.clone();
     let served = served.png(dir, "served.png");
     assert_eq!(served.dimensions(), (40, 30));
     assert!(served.pixels() == rendered.pixels(), "{checkpoint}: the viewer's render differs from lucid render's");
+    // The page's frames, raw bytes: the PNG's pixels.
+    let raw = viewer.get(&format!("/api/render?{}&format=rgb", query(&camera)));
+    assert_eq!((raw.status, raw.header("x-width"), raw.header("x-height")), (200, Some("40"), Some("30")));
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(png_bytes)).read_info().unwrap();
+    let mut pixels = vec![0; decoder.output_buffer_size().unwrap()];
+    decoder.next_frame(&mut pixels).unwrap();
+    assert!(raw.body == pixels, "{checkpoint}: the raw frame differs from the PNG");
 
     // The depth under a pixel is the render's depth there, measured along the axis.
     let (x, y) = (21, 14);

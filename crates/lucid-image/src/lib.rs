@@ -26,6 +26,6 @@ pub mod tonemap;
 pub use buffer::Image;
 pub use error::ImageError;
 pub use io::{
-    ExrPrecision, ImageFormat, PngBitDepth, WriteOptions, encode_png, encoded_png, image_dimensions, read_image,
-    write_atomically, write_image, write_image_with,
+    ExrPrecision, ImageFormat, PngBitDepth, WriteOptions, encode_png, encoded_png, encoded_rgb8, image_dimensions,
+    read_image, write_atomically, write_image, write_image_with,
 };

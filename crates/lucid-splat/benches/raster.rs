@@ -1,7 +1,9 @@
 //! Time per stage of one splat render and its backward, for a random 100k-Gaussian cloud at
 //! 200×200 and 800×800: `cargo bench -p lucid-splat --bench raster`. With
 //! `LUCID_BENCH_PLY=cloud.ply LUCID_BENCH_DATASET=folder` it times a trained cloud from the
-//! dataset's first training camera instead. Prints a table; the headline numbers
+//! dataset's first training cameras instead (`LUCID_BENCH_SCALE=2`: at twice their
+//! resolution, as a viewer shows them); `view` is a whole `render_view` (what `lucid render`
+//! and the viewer call) and `png` the viewer's encoding of it. Prints a table; the headline numbers
 //! (blends/s/core, images/s) are in `lucid bench splat`.
 
 use std::time::Instant;
@@ -12,9 +14,11 @@ use std::time::Instant;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use glam::Vec3;
+use lucid_scene::evaluation::ViewModel;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_splat::project::{RenderSettings, project_backward_one, project_one};
 use lucid_splat::raster::{bin, rasterize, rasterize_backward};
+use lucid_splat::view::SplatRenderer;
 use lucid_splat::{SplatCamera, SplatCloud};
 
 fn best_of(reps: usize, mut f: impl FnMut()) -> f64 {
@@ -37,11 +41,24 @@ fn main() {
     if let (Ok(ply), Ok(dataset)) = (std::env::var("LUCID_BENCH_PLY"), std::env::var("LUCID_BENCH_DATASET")) {
         let cloud = lucid_splat::ply::read_splat_ply(std::path::Path::new(&ply)).expect("readable splat .ply");
         let data = lucid_scene::Dataset::open(&dataset).expect("readable dataset");
-        let cameras: Vec<SplatCamera> = data
+        let cameras: Vec<PinholeCamera> = data
             .frames(lucid_scene::Split::Train)
             .iter()
             .take(10)
-            .map(|f| SplatCamera::from_pinhole(&f.camera))
+            .map(|f| {
+                let scale: f32 = std::env::var("LUCID_BENCH_SCALE").ok().and_then(|s| s.parse().ok()).unwrap_or(1.0);
+                let k = f.camera.intrinsics;
+                let scaled = Intrinsics {
+                    width: (k.width as f32 * scale).round() as u32,
+                    height: (k.height as f32 * scale).round() as u32,
+                    fx: k.fx * scale,
+                    fy: k.fy * scale,
+                    cx: k.cx * scale,
+                    cy: k.cy * scale,
+                    ..k
+                };
+                PinholeCamera::new(scaled, f.camera.camera_to_world)
+            })
             .collect();
         println!("{} Gaussians, {} training views", cloud.len(), cameras.len());
         header();
@@ -58,11 +75,11 @@ fn main() {
         }
     }
     header();
-    let cameras: Vec<SplatCamera> = [200u32, 800]
+    let cameras: Vec<PinholeCamera> = [200u32, 800]
         .iter()
         .map(|&size| {
             let k = Intrinsics::from_fov_x(size, size, 0.69);
-            SplatCamera::from_pinhole(&PinholeCamera::new(k, look_at(Vec3::new(0.0, -4.0, 1.0), Vec3::ZERO, Vec3::Z)))
+            PinholeCamera::new(k, look_at(Vec3::new(0.0, -4.0, 1.0), Vec3::ZERO, Vec3::Z))
         })
         .collect();
     stages(&cloud, &cameras);
@@ -73,12 +90,14 @@ fn header() {
         "{:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>12}",
         "size", "project", "bin", "raster", "raster_bw", "project_bw", "blends"
     );
+    println!("{:>6} {:>10} {:>10}", "", "view", "png");
 }
 
-fn stages(cloud: &SplatCloud, cameras: &[SplatCamera]) {
+fn stages(cloud: &SplatCloud, cameras: &[PinholeCamera]) {
     let params = cloud.params();
     let settings = RenderSettings::default();
-    for &camera in cameras {
+    for pinhole in cameras {
+        let camera = SplatCamera::from_pinhole(pinhole);
         let (w, h) = (camera.width as usize, camera.height as usize);
         let size = camera.width;
         let projected: Vec<_> = (0..params.len()).map(|i| project_one(&params, i, &camera, &settings)).collect();
@@ -130,5 +149,14 @@ fn stages(cloud: &SplatCloud, cameras: &[SplatCamera]) {
             ms(t_project_bw),
             format!("{} ({:.1})", state.blends, state.blends as f64 / bins.pairs() as f64)
         );
+        let renderer = SplatRenderer { cloud, settings };
+        let view = renderer.render_view(pinhole, None, 1, 0);
+        let t_view = best_of(7, || {
+            std::hint::black_box(renderer.render_view(pinhole, None, 1, 0));
+        });
+        let t_png = best_of(7, || {
+            std::hint::black_box(lucid_image::encoded_png(&view.colour, true).expect("encodes"));
+        });
+        println!("{:>6} {:>10} {:>10}", "", ms(t_view), ms(t_png));
     }
 }

@@ -61,16 +61,15 @@ impl ViewModel for SplatRenderer<'_> {
     ) -> RenderedView {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let passes = if lens.is_some() { lens_rays.max(1) } else { 1 };
-        let mut acc = vec![0.0f32; w * h * 4];
-        let mut depth = vec![0.0f32; w * h];
+        // Without a lens the one pass is the sum (a viewer's frame skips two copies of it).
+        let (mut acc, mut depth) = match lens {
+            None => self.render_pinhole(camera),
+            Some(_) => (vec![0.0f32; w * h * 4], vec![0.0f32; w * h]),
+        };
         for k in 0..passes {
-            let cam = match lens {
-                Some((aperture, focus)) => {
-                    let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
-                    lens_pinhole(camera, d.x, d.y, focus)
-                }
-                None => *camera,
-            };
+            let Some((aperture, focus)) = lens else { break };
+            let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
+            let cam = lens_pinhole(camera, d.x, d.y, focus);
             let (image, z) = self.render_pinhole(&cam);
             for (a, v) in acc.iter_mut().zip(&image) {
                 *a += v / passes as f32;

@@ -182,18 +182,17 @@ pub fn encode_png(image: &Image) -> Result<Vec<u8>, ImageError> {
 }
 
 /// An image whose colours are already sRGB-encoded in `[0,1]` (as NeRF and splat renders
-/// are) as an opaque 8-bit RGB PNG in memory: quantised directly, with no decode and
-/// re-encode that could move a value across a rounding step, so every writer of such renders
-/// (`lucid render`'s frames, the viewer's replies) gives the same pixels. `fast` trades size
-/// for encoding time (for a viewer's frames).
+/// are) as an opaque 8-bit RGB PNG in memory, its pixels those of [`encoded_rgb8`]: quantised
+/// directly, with no decode and re-encode that could move a value across a rounding step, so
+/// every writer of such renders (`lucid render`'s frames, the viewer's replies) gives the same
+/// pixels. `fast` trades size for encoding time (for a viewer's frames).
 pub fn encoded_png(image: &Image, fast: bool) -> Result<Vec<u8>, ImageError> {
     let path = Path::new("(PNG in memory)");
     let fail = |reason: String| ImageError::encode(path, "PNG", reason);
     if image.width() == 0 || image.height() == 0 {
         return Err(fail("image is empty".into()));
     }
-    let quantise = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-    let data: Vec<u8> = image.pixels().iter().flat_map(|p| [quantise(p[0]), quantise(p[1]), quantise(p[2])]).collect();
+    let data = encoded_rgb8(image);
     let mut bytes = Vec::with_capacity(data.len() / 2);
     let mut encoder = png::Encoder::new(&mut bytes, image.width() as u32, image.height() as u32);
     encoder.set_color(png::ColorType::Rgb);
@@ -205,6 +204,22 @@ pub fn encoded_png(image: &Image, fast: bool) -> Result<Vec<u8>, ImageError> {
     writer.write_image_data(&data).map_err(|e| fail(e.to_string()))?;
     writer.finish().map_err(|e| fail(e.to_string()))?;
     Ok(bytes)
+}
+
+/// The 8-bit RGB bytes (rows top to bottom, no padding) of an image whose colours are already
+/// sRGB-encoded in `[0,1]`: each channel clamped and rounded to the nearest of 255 steps.
+pub fn encoded_rgb8(image: &Image) -> Vec<u8> {
+    image.pixels().iter().flat_map(|p| [quantise(p[0]), quantise(p[1]), quantise(p[2])]).collect()
+}
+
+/// `round(255·clamp(v, 0, 1))`. `f32::round` is a libm call on baseline x86-64 (a few
+/// per cent of a viewer's frame). `⌊x + ½⌋` equals it for every `x ∈ [½, 255]`: the sum's
+/// rounding could carry it up to an integer only from just below one, where the sum has `x`'s
+/// spacing and is exact; below ½ both are 0 (where `x + ½` would round up to 1).
+#[inline]
+fn quantise(v: f32) -> u8 {
+    let x = v.clamp(0.0, 1.0) * 255.0;
+    if x < 0.5 { 0 } else { (x + 0.5) as u8 }
 }
 
 /// Writes a file through `write` into a temporary sibling, then renames it over `path`.
@@ -234,4 +249,25 @@ where
 fn temporary_sibling(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantise_rounds_as_f32_round_does() {
+        let round = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        // Every 7th float in [0, 1], and every float within 64 steps of each rounding boundary
+        // (where the two could part), and values outside the range.
+        let strided = (0..=1.0f32.to_bits()).step_by(7).map(f32::from_bits);
+        let boundaries = (0..255).flat_map(|k| {
+            let edge = ((k as f32 + 0.5) / 255.0).to_bits();
+            (edge - 64..=edge + 64).map(f32::from_bits)
+        });
+        let outside = [-1.0, -0.0, 1.0 + f32::EPSILON, 2.0, f32::INFINITY, f32::NEG_INFINITY];
+        for v in strided.chain(boundaries).chain(outside) {
+            assert_eq!(quantise(v), round(v), "{v:e}");
+        }
+    }
 }

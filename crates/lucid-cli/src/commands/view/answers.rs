@@ -6,14 +6,14 @@
 use std::time::Instant;
 
 use lucid_image::metrics::{psnr, ssim};
-use lucid_image::{Image, encode_png, encoded_png};
+use lucid_image::{Image, encode_png, encoded_png, encoded_rgb8};
 use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::{RenderedView, ViewModel, ground_truth};
 use lucid_scene::held_out::error_image;
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera};
 use serde_json::json;
 
-use super::requests::{FrameRef, ImageMode, Route, ViewRequest};
+use super::requests::{FrameFormat, FrameRef, ImageMode, Route, ViewRequest};
 
 /// A reply: status, content type, body and extra headers.
 #[derive(Clone, Debug)]
@@ -94,9 +94,18 @@ impl ViewedScene<'_> {
             ImageMode::Colour => out.colour,
             ImageMode::Depth => depth_colours(&out),
         };
-        Reply::encoded_png(&image)
-            .with("X-Render-Seconds", format!("{seconds:.4}"))
-            .with("X-Samples", out.samples.to_string())
+        let reply = match view.format {
+            FrameFormat::Png => Reply::encoded_png(&image),
+            FrameFormat::Rgb => Reply {
+                status: 200,
+                content_type: "application/octet-stream",
+                body: encoded_rgb8(&image),
+                headers: vec![],
+            }
+            .with("X-Width", image.width().to_string())
+            .with("X-Height", image.height().to_string()),
+        };
+        reply.with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string())
     }
 
     /// Renders the one ray through pixel `(x, y)`: a 1×1 camera whose principal point is

@@ -57,6 +57,16 @@ pub enum ImageMode {
     Depth,
 }
 
+/// How a render is sent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameFormat {
+    /// A PNG.
+    Png,
+    /// The 8-bit RGB bytes, rows top to bottom, the size in `X-Width`/`X-Height` (the page's
+    /// frames: nothing to encode or decode on either side of a loopback connection).
+    Rgb,
+}
+
 /// A camera to render, with its lens.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewRequest {
@@ -68,6 +78,8 @@ pub struct ViewRequest {
     pub lens_rays: usize,
     /// Colour or depth.
     pub mode: ImageMode,
+    /// PNG or raw bytes.
+    pub format: FrameFormat,
 }
 
 /// One image of the dataset.
@@ -171,7 +183,7 @@ impl Query {
 
     /// `c2w` (16 comma-separated numbers, row-major OpenGL camera-to-world), `fov` (vertical,
     /// degrees), `w`, `h`, and optionally `aperture` and `focus` (scene units), `lens_rays`
-    /// and `mode` (`colour` or `depth`).
+    /// `mode` (`colour` or `depth`) and `format` (`png` or `rgb`).
     fn view(&self) -> Result<ViewRequest, Refusal> {
         let w = self.integer("w", 1, u64::from(MAX_SIDE))? as u32;
         let h = self.integer("h", 1, u64::from(MAX_SIDE))? as u32;
@@ -208,7 +220,12 @@ impl Query {
             "depth" => ImageMode::Depth,
             other => return Err(Refusal::bad(format!("mode '{other}' must be colour or depth"))),
         };
-        Ok(ViewRequest { camera, lens, lens_rays, mode })
+        let format = match self.get("format").unwrap_or("png") {
+            "png" => FrameFormat::Png,
+            "rgb" => FrameFormat::Rgb,
+            other => return Err(Refusal::bad(format!("format '{other}' must be png or rgb"))),
+        };
+        Ok(ViewRequest { camera, lens, lens_rays, mode, format })
     }
 
     /// `split` (train, val or test) and `index`; the index is checked against the dataset
@@ -242,11 +259,11 @@ mod tests {
         assert_eq!(view.camera.position(), glam::Vec3::new(0.0, 0.0, 4.0));
         assert_eq!(view.lens, Some((0.1, 3.5)));
         assert_eq!(view.lens_rays, 8);
-        assert_eq!(view.mode, ImageMode::Colour);
+        assert_eq!((view.mode, view.format), (ImageMode::Colour, FrameFormat::Png));
         // The browser's URLSearchParams encodes the commas.
-        let encoded = format!("/api/render?c2w={}&fov=90&w=40&h=20&mode=depth", POSE.replace(',', "%2C"));
+        let encoded = format!("/api/render?c2w={}&fov=90&w=40&h=20&mode=depth&format=rgb", POSE.replace(',', "%2C"));
         let Route::Render(view) = parse(&encoded).unwrap() else { panic!("not a render") };
-        assert_eq!((view.lens, view.mode), (None, ImageMode::Depth));
+        assert_eq!((view.lens, view.mode, view.format), (None, ImageMode::Depth, FrameFormat::Rgb));
     }
 
     #[test]
@@ -270,6 +287,7 @@ mod tests {
             ("fov=50&w=10&h=10&aperture=-1", "aperture"),
             ("fov=50&w=10&h=10&lens_rays=100000", "lens_rays"),
             ("fov=50&w=10&h=10&mode=x", "mode"),
+            ("fov=50&w=10&h=10&format=jpeg", "format"),
             ("fov=50&w=10&h=10&w=20", "twice"),
         ];
         for (rest, want) in cases {

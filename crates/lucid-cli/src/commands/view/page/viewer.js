@@ -10,9 +10,11 @@ const truthCanvas = $('truth');
 
 // How long the camera must rest before the full-resolution frame is asked for, and how long
 // a frame may take to render while it moves: 15 frames/s, with two requests in flight (the
-// coarse frame's size adapts to the renderer's measured speed).
+// coarse frame's size adapts to the renderer's measured speed). The render is ~90 % of the
+// server's time per frame (the rest: quantising, sending; splats at 400×400 rendered in 54–61
+// ms at 17–14.6 frames/s), so it gets 90 % of a frame's interval.
 const REST_MS = 150;
-const COARSE_SECONDS = 1 / 15;
+const COARSE_SECONDS = 0.9 / 15;
 
 let info = null;
 const cam = { target: [0, 0, 0], yaw: 0, pitch: 0.5, dist: 4, fov: 40 };
@@ -120,7 +122,7 @@ function reset() {
 function renderUrl(c, width, height, withLens, mode) {
   const q = new URLSearchParams({
     c2w: rowMajor(c.b).map((v) => v.toPrecision(9)).join(','),
-    fov: c.fov.toPrecision(9), w: width, h: height, mode,
+    fov: c.fov.toPrecision(9), w: width, h: height, mode, format: 'rgb',
   });
   if (withLens && lens.aperture > 0) {
     q.set('aperture', lens.aperture);
@@ -130,17 +132,31 @@ function renderUrl(c, width, height, withLens, mode) {
   return '/api/render?' + q;
 }
 
+// Renders come as raw RGB bytes (format=rgb): over the loopback a PNG's encoding and
+// decoding cost more CPU, which the renderer shares, than sending the bytes.
 async function fetchImage(url) {
   const response = await fetch(url);
   if (!response.ok) throw new Error(`${response.status}: ${await response.text()}`);
-  const bitmap = await createImageBitmap(await response.blob());
-  return { bitmap, headers: response.headers };
+  const width = parseInt(response.headers.get('X-Width') || '0', 10);
+  const height = parseInt(response.headers.get('X-Height') || '0', 10);
+  if (!width || !height) return { bitmap: await createImageBitmap(await response.blob()), headers: response.headers };
+  const rgb = new Uint8Array(await response.arrayBuffer());
+  if (rgb.length !== 3 * width * height) throw new Error(`a ${width}x${height} frame of ${rgb.length} bytes`);
+  const rgba = new Uint8ClampedArray(4 * width * height);
+  for (let i = 0, j = 0; i < rgb.length; i += 3, j += 4) {
+    rgba[j] = rgb[i];
+    rgba[j + 1] = rgb[i + 1];
+    rgba[j + 2] = rgb[i + 2];
+    rgba[j + 3] = 255;
+  }
+  return { bitmap: await createImageBitmap(new ImageData(rgba, width, height)), headers: response.headers };
 }
 
 function draw(target, bitmap) {
   const g = target.getContext('2d');
   g.imageSmoothingEnabled = true;
-  g.imageSmoothingQuality = 'high';
+  // A coarse frame is stretched while the camera moves: bilinear is enough then, and cheaper.
+  g.imageSmoothingQuality = bitmap.width === target.width ? 'high' : 'low';
   g.drawImage(bitmap, 0, 0, target.width, target.height);
 }
 
