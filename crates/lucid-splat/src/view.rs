@@ -39,6 +39,31 @@ impl SplatRenderer<'_> {
         let depth = resample(&depth, &wide.intrinsics, &k);
         (rgba.into_iter().flatten().collect(), depth.into_iter().map(|d| d[0]).collect())
     }
+
+    /// The mean of `passes` pinhole renders from stratified points on a thin lens's aperture.
+    fn render_lens(
+        &self,
+        camera: &PinholeCamera,
+        aperture: f32,
+        focus: f32,
+        passes: usize,
+        seed: u64,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
+        let mut acc = vec![0.0f32; w * h * 4];
+        let mut depth = vec![0.0f32; w * h];
+        for k in 0..passes {
+            let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
+            let (image, z) = self.render_pinhole(&lens_pinhole(camera, d.x, d.y, focus));
+            for (a, v) in acc.iter_mut().zip(&image) {
+                *a += v / passes as f32;
+            }
+            for (a, v) in depth.iter_mut().zip(&z) {
+                *a += v / passes as f32;
+            }
+        }
+        (acc, depth)
+    }
 }
 
 /// The pinhole through lens point `(ox, oy)` (camera units, +y up) of a thin lens focused at
@@ -60,24 +85,10 @@ impl ViewModel for SplatRenderer<'_> {
         seed: u64,
     ) -> RenderedView {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
-        let passes = if lens.is_some() { lens_rays.max(1) } else { 1 };
-        // Without a lens the one pass is the sum (a viewer's frame skips two copies of it).
-        let (mut acc, mut depth) = match lens {
+        let (acc, depth) = match lens {
             None => self.render_pinhole(camera),
-            Some(_) => (vec![0.0f32; w * h * 4], vec![0.0f32; w * h]),
+            Some((aperture, focus)) => self.render_lens(camera, aperture, focus, lens_rays.max(1), seed),
         };
-        for k in 0..passes {
-            let Some((aperture, focus)) = lens else { break };
-            let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
-            let cam = lens_pinhole(camera, d.x, d.y, focus);
-            let (image, z) = self.render_pinhole(&cam);
-            for (a, v) in acc.iter_mut().zip(&image) {
-                *a += v / passes as f32;
-            }
-            for (a, v) in depth.iter_mut().zip(&z) {
-                *a += v / passes as f32;
-            }
-        }
         let pixels: Vec<[f32; 4]> = acc.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
         let depth = pixels.iter().zip(&depth).map(|(p, d)| if p[3] > 1e-3 { d / p[3] } else { 0.0 }).collect();
         RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples: self.cloud.len() }

@@ -47,7 +47,7 @@ pub(super) fn write(
     options: WriteOptions,
 ) -> Result<(), ImageError> {
     let (w, h) = (image.width() as u32, image.height() as u32);
-    let quantise8 = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let quantise8 = super::quantise;
     let quantise16 = |v: f32| (v.clamp(0.0, 1.0) * 65535.0).round() as u16;
     let colour = |p: &[f32; 4], c: usize| srgb_encode(if options.single_channel { p[0] } else { p[c] });
     let alpha = format == ImageFormat::Png && image.has_alpha();

@@ -212,12 +212,12 @@ pub fn encoded_rgb8(image: &Image) -> Vec<u8> {
     image.pixels().iter().flat_map(|p| [quantise(p[0]), quantise(p[1]), quantise(p[2])]).collect()
 }
 
-/// `round(255·clamp(v, 0, 1))`. `f32::round` is a libm call on baseline x86-64 (a few
+/// `round(255·clamp(v, 0, 1))`, for every 8-bit writer here. `f32::round` is a libm call on baseline x86-64 (a few
 /// per cent of a viewer's frame). `⌊x + ½⌋` equals it for every `x ∈ [½, 255]`: the sum's
 /// rounding could carry it up to an integer only from just below one, where the sum has `x`'s
 /// spacing and is exact; below ½ both are 0 (where `x + ½` would round up to 1).
 #[inline]
-fn quantise(v: f32) -> u8 {
+pub(super) fn quantise(v: f32) -> u8 {
     let x = v.clamp(0.0, 1.0) * 255.0;
     if x < 0.5 { 0 } else { (x + 0.5) as u8 }
 }

@@ -49,6 +49,15 @@ impl Reply {
         Self::png_bytes(encoded_png(image, true))
     }
 
+    /// An sRGB-encoded image as its raw 8-bit RGB bytes (the pixels of [`Self::encoded_png`]),
+    /// its size in `X-Width` and `X-Height`.
+    fn rgb(image: &Image) -> Self {
+        let body = encoded_rgb8(image);
+        Self { status: 200, content_type: "application/octet-stream", body, headers: vec![] }
+            .with("X-Width", image.width().to_string())
+            .with("X-Height", image.height().to_string())
+    }
+
     fn png_bytes(bytes: Result<Vec<u8>, lucid_image::ImageError>) -> Self {
         match bytes {
             Ok(body) => Self { status: 200, content_type: "image/png", body, headers: vec![] },
@@ -96,14 +105,7 @@ impl ViewedScene<'_> {
         };
         let reply = match view.format {
             FrameFormat::Png => Reply::encoded_png(&image),
-            FrameFormat::Rgb => Reply {
-                status: 200,
-                content_type: "application/octet-stream",
-                body: encoded_rgb8(&image),
-                headers: vec![],
-            }
-            .with("X-Width", image.width().to_string())
-            .with("X-Height", image.height().to_string()),
+            FrameFormat::Rgb => Reply::rgb(&image),
         };
         reply.with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string())
     }
