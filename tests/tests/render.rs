@@ -80,7 +80,31 @@ fn bad_scene_files_fail_with_file_and_key_and_write_nothing() {
     lucid_in(dir.path(), &["render", "missing.toml", "-o", "out.exr"]).failure(&["missing.toml"]);
     lucid_in(dir.path(), &["render", &cornell(), "-o", "out.jpg"]).failure(&["out.jpg"]);
     lucid_in(dir.path(), &["render", &cornell(), "-o", "out.exr", "--spp", "0"]).failure(&["--spp"]);
+    // A usage error (clap's exit code 2) that lists the integrators.
+    let unknown = lucid_in(dir.path(), &["render", &cornell(), "-o", "out.exr", "--integrator", "mlt"]);
+    assert!(unknown.code == Some(2) && unknown.stderr.contains("\"mlt\"") && unknown.stderr.contains("bdpt"));
+    let media = cornell().replace("cornell.toml", "media.toml");
+    lucid_in(dir.path(), &["render", &media, "-o", "out.exr", "--integrator", "bdpt"])
+        .failure(&["media.toml", "media"]);
     assert_eq!(files_under(dir.path()), before);
+}
+
+#[test]
+fn render_takes_the_integrator_from_the_command_line() {
+    let dir = temp_dir();
+    let size = ["--spp", "4", "--width", "24", "--height", "24"];
+    let scene = cornell();
+    let mut means = Vec::new();
+    for integrator in ["path", "bdpt", "light-tracing"] {
+        let out = format!("{integrator}.exr");
+        let mut args = vec!["render", &scene, "-o", &out, "--integrator", integrator];
+        args.extend(size);
+        let run = lucid_in(dir.path(), &args).success();
+        assert!(run.stdout.contains(&format!("({integrator})")), "{}", run.stdout);
+        means.push(read_image(dir.path().join(&out)).unwrap().mean()[0]);
+    }
+    // Different algorithms, different noise: the command line reached the renderer.
+    assert!(means[0] != means[1] && means[1] != means[2], "{means:?}");
 }
 
 #[test]

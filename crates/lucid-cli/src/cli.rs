@@ -597,6 +597,10 @@ pub struct GenArgs {
     /// Seed of the rig and of the renders (default: the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Light-transport algorithm of the renders (default: the scene's integrator.type):
+    /// path, bdpt or light-tracing.
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<lucid_trace::Integrator>,
     /// Distance of the orbit cameras from the origin.
     #[arg(long, default_value_t = 4.0)]
     pub radius: f32,
@@ -712,9 +716,20 @@ pub enum BenchTarget {
     /// The HDR toolkit at 1 megapixel: response recovery and merge of 5 brackets, Mertens
     /// fusion, every tone-mapping operator.
     Hdr,
+    /// Every light-transport integrator at equal render time on `--scenes` (default cornell
+    /// and caustic): relative MSE against a long reference render, the time to reach the
+    /// path tracer's error, and how the error falls with time.
+    Integrators,
     /// Every benchmark above in turn, with one JSON file and one HTML report (in `--report`,
     /// default `out/bench`).
     All,
+}
+
+impl BenchArgs {
+    /// The NeRF and 3DGS benchmarks' scenes.
+    pub fn trainer_scenes(&self) -> Vec<String> {
+        self.scenes.clone().unwrap_or_else(|| vec!["trophy".into(), "toys".into()])
+    }
 }
 
 /// `lucid bench`.
@@ -738,9 +753,24 @@ pub struct BenchArgs {
     #[arg(long)]
     pub dataset: Option<PathBuf>,
     /// nerf, splat: the built-in sets to benchmark on, each rendered once into out/bench/SCENE
-    /// (trophy at 384 spp, toys at 512, their noise ceiling measured; object: the older 32-spp set).
-    #[arg(long, value_delimiter = ',', default_value = "trophy,toys")]
-    pub scenes: Vec<String>,
+    /// (trophy at 384 spp, toys at 512, their noise ceiling measured; object: the older 32-spp
+    /// set); default trophy,toys. integrators: built-in scenes or scene files; default
+    /// cornell,caustic.
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Option<Vec<String>>,
+    /// integrators: which (default all of them).
+    #[arg(long, value_delimiter = ',', value_parser = parse_integrator)]
+    pub integrators: Option<Vec<lucid_trace::Integrator>>,
+    /// integrators: render time of each integrator on each scene, in seconds.
+    #[arg(long, default_value_t = 20.0)]
+    pub seconds: f64,
+    /// integrators: image width (the height keeps the scene's aspect).
+    #[arg(long, default_value_t = 128)]
+    pub width: u32,
+    /// integrators: render time of a reference that is not cached yet, in multiples of
+    /// `--seconds` (references are kept in out/bench/integrators).
+    #[arg(long, default_value_t = 30.0)]
+    pub reference_factor: f64,
     /// Splits and scale of a capture given with --dataset.
     #[command(flatten)]
     pub data: DatasetArgs,
@@ -770,6 +800,10 @@ pub struct RenderArgs {
     /// Samples per pixel (overrides the scene's integrator.spp).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Light-transport algorithm (overrides the scene's integrator.type): path, bdpt or
+    /// light-tracing.
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<lucid_trace::Integrator>,
     /// Image width (overrides the camera's; the horizontal field of view is kept).
     #[arg(long)]
     pub width: Option<u32>,
@@ -856,6 +890,11 @@ pub struct DemoArgs {
 }
 
 /// Parses `TRAIN,VAL,TEST` view counts.
+fn parse_integrator(text: &str) -> Result<lucid_trace::Integrator, String> {
+    lucid_trace::Integrator::from_name(text)
+        .ok_or_else(|| format!("unknown integrator {text:?} (one of {})", lucid_trace::Integrator::names()))
+}
+
 fn parse_split_counts(text: &str) -> Result<[usize; 3], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     let [a, b, c] = parts.as_slice() else {

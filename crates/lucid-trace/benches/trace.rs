@@ -95,7 +95,7 @@ fn main() {
     });
     println!("{:<28} {n:>10} {:>12.1} {:>10.3}", "  packets of 8", s * 1e9 / n as f64, hits as f64 / n as f64);
 
-    let tracer = loaded.settings.integrator;
+    let tracer = loaded.settings.path;
     let (s, rays) = best_of(3, || {
         let mut rng = Rng::new(2, 2);
         camera_rays.iter().map(|r| tracer.trace(scene, *r, &mut rng).rays as usize).sum()

@@ -71,7 +71,7 @@ pub struct PathSample {
 }
 
 /// A local shading frame around a normal.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct Frame {
     pub(crate) t: Vec3,
     pub(crate) b: Vec3,

@@ -2,6 +2,7 @@
 //! truth, so its correctness is checked against closed forms (white furnace, solid angles,
 //! Fresnel values, pdf normalisation) and against a reference render of the Cornell box.
 
+mod bdpt;
 pub mod bsdf;
 pub mod distribution;
 pub mod environment;
@@ -18,6 +19,6 @@ pub mod scene_file;
 
 pub use integrator::{LightStrategy, PathTracer};
 pub use material::{Material, Texture};
-pub use render::{RenderCamera, RenderOutput, RenderSettings, render};
+pub use render::{Integrator, RenderCamera, RenderOutput, RenderSettings, render};
 pub use scene::{Emission, Scene, SceneBuilder};
 pub use scene_file::{LoadedScene, SceneFileError, load_scene, parse_scene};

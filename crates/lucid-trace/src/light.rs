@@ -114,7 +114,7 @@ impl Light {
                 let dist2 = d.length_squared();
                 let distance = dist2.sqrt();
                 let wi = d / distance;
-                let falloff = smooth_falloff(-wi.dot(*direction), *cos_outer, *cos_inner);
+                let falloff = spot_falloff(-wi.dot(*direction), *cos_outer, *cos_inner);
                 (falloff > 0.0).then(|| LightSample {
                     wi,
                     li: *intensity * falloff / dist2,
@@ -127,11 +127,7 @@ impl Light {
                 Some(LightSample { wi: *direction, li: *irradiance, pdf: 1.0, distance: f32::INFINITY, delta: true })
             }
             Light::Area { cdf, shapes, area, radiance, two_sided } => {
-                let (k, ux) = pick_by_area(cdf, *area, u.x);
-                let (p, n) = match &shapes[k] {
-                    (Shape::Triangle { p, .. }, normal) => (point_on_triangle(p, Vec2::new(ux, u.y)), *normal),
-                    (sphere, _) => sample_shape(sphere, Vec2::new(ux, u.y)),
-                };
+                let (p, n) = point_on_area(cdf, shapes, *area, u);
                 let (sample, valid) = towards_area_point(point, p, n, *area, *radiance, *two_sided);
                 valid.then_some(sample)
             }
@@ -199,6 +195,16 @@ impl Light {
     }
 }
 
+/// A point of an area light's surface, uniform by area, and its normal.
+#[inline]
+pub(crate) fn point_on_area(cdf: &[f32], shapes: &[(Shape, Vec3)], area: f32, u: Vec2) -> (Vec3, Vec3) {
+    let (k, ux) = pick_by_area(cdf, area, u.x);
+    match &shapes[k] {
+        (Shape::Triangle { p, .. }, normal) => (point_on_triangle(p, Vec2::new(ux, u.y)), *normal),
+        (sphere, _) => sample_shape(sphere, Vec2::new(ux, u.y)),
+    }
+}
+
 /// The primitive of an area light that `u` picks by area (`cdf`: cumulative areas, `area`:
 /// their total), and `u` rescaled to a fresh uniform within that primitive's share.
 #[inline]
@@ -248,7 +254,7 @@ pub(crate) fn towards_area_point(
 }
 
 /// Smoothstep between the outer and inner cone cosines.
-fn smooth_falloff(cos: f32, cos_outer: f32, cos_inner: f32) -> f32 {
+pub(crate) fn spot_falloff(cos: f32, cos_outer: f32, cos_inner: f32) -> f32 {
     if cos >= cos_inner {
         return 1.0;
     }
@@ -330,9 +336,9 @@ mod tests {
 
     #[test]
     fn spot_falloff_is_smooth_and_bounded() {
-        assert_eq!(smooth_falloff(1.0, 0.8, 0.9), 1.0);
-        assert_eq!(smooth_falloff(0.5, 0.8, 0.9), 0.0);
-        let mid = smooth_falloff(0.85, 0.8, 0.9);
+        assert_eq!(spot_falloff(1.0, 0.8, 0.9), 1.0);
+        assert_eq!(spot_falloff(0.5, 0.8, 0.9), 0.0);
+        let mid = spot_falloff(0.85, 0.8, 0.9);
         assert!((mid - 0.5).abs() < 1e-5);
     }
 }

@@ -293,6 +293,20 @@ impl Material {
     }
 }
 
+impl SurfaceBsdf {
+    /// Factor that turns a sample's radiance weight into its importance weight (light paths):
+    /// refraction scales radiance by 1/η² across the interface, importance not.
+    pub(crate) fn adjoint_scale(&self, wo: Vec3, sample: &BsdfSample) -> f32 {
+        match self {
+            SurfaceBsdf::Dielectric(d) if sample.transmission => {
+                let eta = if wo.z > 0.0 { d.eta } else { 1.0 / d.eta };
+                eta * eta
+            }
+            _ => 1.0,
+        }
+    }
+}
+
 impl Bsdf for SurfaceBsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         each_bsdf!(self, b => b.eval(wo, wi))

@@ -9,6 +9,7 @@ use lucid_image::Image;
 use lucid_scene::{Camera, PinholeCamera, ThinLensCamera};
 use rayon::prelude::*;
 
+use crate::bdpt::{Bidirectional, CameraImportance, SplatFilm, Strategies, Subpaths};
 use crate::integrator::{PathSample, PathTracer};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
@@ -23,17 +24,63 @@ pub enum RenderCamera {
 }
 
 impl RenderCamera {
-    fn pinhole(&self) -> &PinholeCamera {
+    pub(crate) fn pinhole(&self) -> &PinholeCamera {
         match self {
             RenderCamera::Pinhole(c) => c,
             RenderCamera::ThinLens(c) => &c.pinhole,
         }
     }
 
-    fn ray(&self, px: f32, py: f32, lens: Vec2) -> lucid_scene::Ray {
+    pub(crate) fn ray(&self, px: f32, py: f32, lens: Vec2) -> lucid_scene::Ray {
         match self {
             RenderCamera::Pinhole(c) => c.generate_ray(px, py, lens),
             RenderCamera::ThinLens(c) => c.generate_ray(px, py, lens),
+        }
+    }
+}
+
+/// The light-transport algorithm of a render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Integrator {
+    /// Unidirectional path tracing with next-event estimation and MIS.
+    #[default]
+    Path,
+    /// Bidirectional path tracing: every connection strategy, power-heuristic MIS.
+    Bdpt,
+    /// Light tracing: paths from the lights connected to the camera (and emitters seen
+    /// directly); no path through a specular surface to the camera.
+    LightTracing,
+}
+
+impl Integrator {
+    /// Every integrator with the name the scene file and `--integrator` use.
+    pub const ALL: [(Integrator, &'static str); 3] =
+        [(Integrator::Path, "path"), (Integrator::Bdpt, "bdpt"), (Integrator::LightTracing, "light-tracing")];
+
+    /// The integrator called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().find(|(_, n)| *n == name).map(|(i, _)| *i)
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        Self::ALL.iter().find(|(i, _)| *i == self).map_or("path", |(_, n)| n)
+    }
+
+    /// The names, for messages.
+    pub fn names() -> String {
+        Self::ALL.iter().map(|(_, n)| *n).collect::<Vec<_>>().join(", ")
+    }
+
+    /// Whether this integrator can render `scene`; [`render`] panics on a scene it cannot.
+    pub fn supports(self, scene: &Scene) -> Result<(), String> {
+        match self {
+            Integrator::Path => Ok(()),
+            Integrator::Bdpt | Integrator::LightTracing if scene.has_media() => Err(format!(
+                "the {} integrator does not handle participating media or medium interfaces; use \"path\"",
+                self.name()
+            )),
+            _ => Ok(()),
         }
     }
 }
@@ -45,8 +92,11 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Seed of all random streams.
     pub seed: u64,
-    /// The integrator.
-    pub integrator: PathTracer,
+    /// Path length, Russian roulette, emitter visibility and (for path tracing) how lights
+    /// are found: shared by every integrator.
+    pub path: PathTracer,
+    /// The light-transport algorithm.
+    pub integrator: Integrator,
 }
 
 /// A rendered view: linear HDR colour with alpha, and its auxiliary buffers.
@@ -67,7 +117,84 @@ pub struct RenderOutput {
 }
 
 /// Renders `scene` through `camera`; `progress(rows_done)` is called as rows finish.
+///
+/// # Panics
+/// If the integrator does not support the scene ([`Integrator::supports`]): callers check
+/// user input first.
 pub fn render(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
+) -> RenderOutput {
+    if let Err(e) = settings.integrator.supports(scene) {
+        panic!("{e}");
+    }
+    match settings.integrator {
+        Integrator::Path => render_paths(scene, camera, settings, progress),
+        Integrator::Bdpt => render_bidirectional(scene, camera, settings, Strategies::All, progress),
+        Integrator::LightTracing => render_bidirectional(scene, camera, settings, Strategies::LightTracing, progress),
+    }
+}
+
+/// Bidirectional renders: each pixel's samples as in [`render_paths`]' scalar loop, plus the
+/// light paths splatted to the film, added once every row is done.
+fn render_bidirectional(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    strategies: Strategies,
+    progress: &(dyn Fn(usize) + Sync),
+) -> RenderOutput {
+    let k = camera.pinhole().intrinsics;
+    let (w, h) = (k.width as usize, k.height as usize);
+    let forward = camera.pinhole().forward();
+    let spp = settings.spp.max(1);
+    let done = AtomicUsize::new(0);
+    let film = SplatFilm::new(w, h);
+    let sampler = Bidirectional::new(scene, CameraImportance::new(camera), &settings.path, strategies);
+    let rows: Vec<(Vec<PixelSum>, u64)> = (0..h)
+        .into_par_iter()
+        .map_init(Subpaths::default, |paths, j| {
+            let mut rays = 0u64;
+            let pixels = (0..w)
+                .map(|i| {
+                    let pixel = pixel_samples(camera, settings, (i, j, w), forward, |ray, rng| {
+                        sampler.sample(ray, rng, &film, paths)
+                    });
+                    rays += pixel.rays;
+                    pixel
+                })
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+            (pixels, rays)
+        })
+        .collect();
+    debug_assert_eq!(film.height(), h);
+    let mut planes = [(); 4].map(|_| Vec::with_capacity(w * h));
+    for (j, row) in rows.iter().enumerate() {
+        for (i, pixel) in row.0.iter().enumerate() {
+            // With hidden emitters, light splatted to a pixel whose camera rays all missed is
+            // dropped by `finish` with the rest of its transparent background.
+            let pixel = PixelSum { radiance: pixel.radiance + film.get(i, j), ..*pixel };
+            for (plane, value) in planes.iter_mut().zip(pixel.finish(spp, settings.path.hide_emitters)) {
+                plane.push(value);
+            }
+        }
+    }
+    let [colour, depth, normal, albedo] = planes.map(|p| Image::from_pixels(w, h, p));
+    RenderOutput {
+        colour,
+        depth,
+        normal,
+        albedo,
+        paths: (w * h) as u64 * spp as u64,
+        rays: rows.iter().map(|r| r.1).sum(),
+    }
+}
+
+/// Path tracing (in packets where the scene allows).
+fn render_paths(
     scene: &Scene,
     camera: &RenderCamera,
     settings: &RenderSettings,
@@ -88,16 +215,11 @@ pub fn render(
                 let mut rays = 0u64;
                 let pixels = (0..w)
                     .map(|i| {
-                        let mut pixel = PixelSum::default();
-                        let mut rng = Rng::new(settings.seed, pixel_index(i, j, w));
-                        for _ in 0..spp {
-                            let jitter = rng.uniform2();
-                            let lens = rng.uniform2();
-                            let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
-                            pixel.add(&ray, &settings.integrator.trace(scene, ray, &mut rng), forward);
-                        }
+                        let pixel = pixel_samples(camera, settings, (i, j, w), forward, |ray, rng| {
+                            settings.path.trace(scene, ray, rng)
+                        });
                         rays += pixel.rays;
-                        pixel.finish(spp, settings.integrator.hide_emitters)
+                        pixel.finish(spp, settings.path.hide_emitters)
                     })
                     .collect();
                 (pixels, rays)
@@ -123,6 +245,26 @@ pub fn render(
         paths: (w * h) as u64 * spp as u64,
         rays: rows.iter().map(|r| r.1).sum(),
     }
+}
+
+/// Pixel `(i, j)` of an image `width` wide, its samples traced one by one by `trace` from
+/// the pixel's own random stream.
+fn pixel_samples(
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    (i, j, width): (usize, usize, usize),
+    forward: Vec3,
+    mut trace: impl FnMut(lucid_scene::Ray, &mut Rng) -> PathSample,
+) -> PixelSum {
+    let mut pixel = PixelSum::default();
+    let mut rng = Rng::new(settings.seed, pixel_index(i, j, width));
+    for _ in 0..settings.spp.max(1) {
+        let jitter = rng.uniform2();
+        let lens = rng.uniform2();
+        let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+        pixel.add(&ray, &trace(ray, &mut rng), forward);
+    }
+    pixel
 }
 
 fn pixel_index(i: usize, j: usize, width: usize) -> u64 {
@@ -153,7 +295,7 @@ fn render_row_in_packets(
     let mut pixels = Vec::with_capacity(width);
     for first in (0..width).step_by(chunk) {
         let n = chunk.min(width - first) * spp;
-        settings.integrator.trace_paths(
+        settings.path.trace_paths(
             scene,
             |k| {
                 // Each sample has its own generator, so that eight of them can be traced side
@@ -176,7 +318,7 @@ fn render_row_in_packets(
                 pixel.add(ray, sample, forward);
             }
             rays += pixel.rays;
-            pixels.push(pixel.finish(spp as u32, settings.integrator.hide_emitters));
+            pixels.push(pixel.finish(spp as u32, settings.path.hide_emitters));
         }
     }
     (pixels, rays)
@@ -186,7 +328,7 @@ fn render_row_in_packets(
 const PATHS_PER_CALL: usize = 1024;
 
 /// A pixel's samples summed.
-#[derive(Default)]
+#[derive(Clone, Copy, Default)]
 struct PixelSum {
     radiance: Vec3,
     normal: Vec3,

@@ -14,6 +14,7 @@
 //! focus_distance = 3.9
 //!
 //! [integrator]
+//! type = "path"                  # path | bdpt | light-tracing (bidirectional: no media)
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5
@@ -67,7 +68,7 @@ use crate::integrator::PathTracer;
 use crate::light::Light;
 use crate::material::{ImageTexture, Material, Texture, Wrap};
 use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
-use crate::render::{RenderCamera, RenderSettings};
+use crate::render::{Integrator, RenderCamera, RenderSettings};
 use crate::scene::{Emission, Scene, SceneBuilder};
 
 /// Why a scene file could not be loaded.
@@ -150,6 +151,8 @@ fn default_up() -> [f32; 3] {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 struct IntegratorSection {
+    #[serde(rename = "type")]
+    kind: String,
     spp: u32,
     max_depth: u32,
     rr_depth: u32,
@@ -160,7 +163,14 @@ struct IntegratorSection {
 impl Default for IntegratorSection {
     fn default() -> Self {
         let p = PathTracer::default();
-        Self { spp: 16, max_depth: p.max_depth, rr_depth: p.rr_depth, hide_emitters: p.hide_emitters, seed: 0 }
+        Self {
+            kind: Integrator::Path.name().into(),
+            spp: 16,
+            max_depth: p.max_depth,
+            rr_depth: p.rr_depth,
+            hide_emitters: p.hide_emitters,
+            seed: 0,
+        }
     }
 }
 
@@ -453,15 +463,19 @@ impl Builder<'_> {
         if i.spp == 0 || i.max_depth == 0 {
             return Err(self.invalid("integrator", "spp and max_depth must be at least 1"));
         }
+        let integrator = Integrator::from_name(&i.kind).ok_or_else(|| {
+            self.invalid("integrator.type", format!("unknown integrator {:?} (one of {})", i.kind, Integrator::names()))
+        })?;
         let settings = RenderSettings {
             spp: i.spp,
             seed: i.seed,
-            integrator: PathTracer {
+            path: PathTracer {
                 max_depth: i.max_depth,
                 rr_depth: i.rr_depth,
                 hide_emitters: i.hide_emitters,
                 ..PathTracer::default()
             },
+            integrator,
         };
         let mut builder = SceneBuilder::new();
         let mut media = BTreeMap::new();
@@ -490,7 +504,9 @@ impl Builder<'_> {
         for (k, l) in file.lights.iter().enumerate() {
             builder.light(self.light(&format!("lights[{k}]"), l)?);
         }
-        Ok(LoadedScene { scene: builder.build(), camera, settings })
+        let scene = builder.build();
+        integrator.supports(&scene).map_err(|reason| self.invalid("integrator.type", reason))?;
+        Ok(LoadedScene { scene, camera, settings })
     }
 
     fn camera(&self, c: &CameraSection) -> Result<RenderCamera, SceneFileError> {

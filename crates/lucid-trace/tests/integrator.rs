@@ -6,7 +6,8 @@ use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_trace::geometry::procedural::quad;
 use lucid_trace::light::Light;
 use lucid_trace::{
-    LightStrategy, Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, load_scene, render,
+    Integrator, LightStrategy, Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, load_scene,
+    render,
 };
 
 fn lambert(albedo: Vec3) -> Material {
@@ -35,7 +36,8 @@ fn convex_diffuse_object_in_a_uniform_environment_reflects_albedo_times_radiance
         let settings = RenderSettings {
             spp: 256,
             seed: 1,
-            integrator: PathTracer { max_depth: 16, rr_depth: 5, hide_emitters: true, ..PathTracer::default() },
+            path: PathTracer { max_depth: 16, rr_depth: 5, hide_emitters: true, ..PathTracer::default() },
+            integrator: Integrator::Path,
         };
         let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
         let (mut sum, mut n) = (0.0f64, 0);
@@ -65,7 +67,8 @@ fn point_light_on_a_plane_follows_the_inverse_square_law() {
     let settings = RenderSettings {
         spp: 4,
         seed: 2,
-        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        path: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        integrator: Integrator::Path,
     };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let expected = 0.8 / std::f32::consts::PI * 10.0 / 4.0;
@@ -98,7 +101,7 @@ fn cornell_box_matches_the_reference_mean() {
     // of the mean; the 0.002 floor (1.4%) leaves room for it and for the reference's ±0.0003.
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes/cornell.toml");
     let mut loaded = load_scene(&path).unwrap();
-    assert_eq!((loaded.settings.spp, loaded.settings.integrator.max_depth), (64, 8));
+    assert_eq!((loaded.settings.spp, loaded.settings.path.max_depth), (64, 8));
     let RenderCamera::Pinhole(cam) = loaded.camera else { panic!("the Cornell camera is a pinhole") };
     loaded.camera = RenderCamera::Pinhole(PinholeCamera::new(
         Intrinsics::from_fov_x(128, 128, cam.intrinsics.fov_x()),
@@ -178,7 +181,8 @@ fn diffuse_plane_under_an_environment_map_reflects_its_cosine_weighted_integral(
     let settings = RenderSettings {
         spp: 20_000,
         seed: 3,
-        integrator: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        path: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        integrator: Integrator::Path,
     };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let got = mean_rgb(&out.colour);
@@ -197,7 +201,7 @@ fn light_sampling_bsdf_sampling_and_mis_converge_to_the_same_image() {
     ));
     let mean_for = |strategy: LightStrategy, spp: u32| {
         let settings =
-            RenderSettings { spp, seed: 11, integrator: PathTracer { strategy, ..loaded.settings.integrator } };
+            RenderSettings { spp, seed: 11, path: PathTracer { strategy, ..loaded.settings.path }, ..loaded.settings };
         let m = mean_rgb(&render(&loaded.scene, &camera, &settings, &|_| {}).colour);
         (m.x + m.y + m.z) / 3.0
     };
@@ -238,7 +242,8 @@ fn white_furnace_for_every_lossless_bsdf() {
         let settings = RenderSettings {
             spp: 256,
             seed: 5,
-            integrator: PathTracer { max_depth: 1000, rr_depth: 1000, hide_emitters: false, ..PathTracer::default() },
+            path: PathTracer { max_depth: 1000, rr_depth: 1000, hide_emitters: false, ..PathTracer::default() },
+            integrator: Integrator::Path,
         };
         let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
         let got = mean_rgb(&out.colour);

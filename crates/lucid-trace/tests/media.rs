@@ -7,7 +7,9 @@ use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 use lucid_trace::geometry::procedural::{cube, quad};
 use lucid_trace::light::Light;
 use lucid_trace::medium::{HenyeyGreenstein, HomogeneousMedium};
-use lucid_trace::{Emission, Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, render};
+use lucid_trace::{
+    Emission, Integrator, Material, PathTracer, RenderCamera, RenderSettings, SceneBuilder, Texture, render,
+};
 
 fn mean(img: &lucid_image::Image) -> Vec3 {
     let m = img.mean();
@@ -32,7 +34,8 @@ fn absorbing_slab_transmits_exp_of_minus_sigma_a_times_thickness() {
     let settings = RenderSettings {
         spp: 4096,
         seed: 1,
-        integrator: PathTracer { max_depth: 8, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        path: PathTracer { max_depth: 8, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
+        integrator: Integrator::Path,
     };
     let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
     let got = mean(&out.colour);
@@ -53,7 +56,8 @@ fn smoke_sphere_mean(sigma_s: Vec3, g: f32, spp: u32) -> Vec3 {
     let settings = RenderSettings {
         spp,
         seed: 2,
-        integrator: PathTracer { max_depth: 100_000, rr_depth: 64, hide_emitters: false, ..PathTracer::default() },
+        path: PathTracer { max_depth: 100_000, rr_depth: 64, hide_emitters: false, ..PathTracer::default() },
+        integrator: Integrator::Path,
     };
     mean(&render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).colour)
 }

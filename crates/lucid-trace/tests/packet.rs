@@ -56,7 +56,7 @@ fn packets_trace_the_shipped_scenes_path_for_path() {
     for name in ["cornell", "materials", "object", "spheres", "studio"] {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../configs/scenes/{name}.toml"));
         let loaded = load_scene(&path).unwrap();
-        assert_packets_match_single_paths(name, &loaded.scene, &loaded.camera, &loaded.settings.integrator);
+        assert_packets_match_single_paths(name, &loaded.scene, &loaded.camera, &loaded.settings.path);
     }
     // Relit by two directional lights, as one-light-at-a-time captures do.
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes/studio.toml");
@@ -64,7 +64,7 @@ fn packets_trace_the_shipped_scenes_path_for_path() {
     let lights = [Vec3::new(0.3, -0.5, 0.8), Vec3::new(-0.7, 0.2, 0.4)]
         .map(|d| Light::Directional { direction: d.normalize(), irradiance: Vec3::splat(3.0) });
     let relit = loaded.scene.relit(lights.to_vec()).unwrap();
-    assert_packets_match_single_paths("studio, relit", &relit, &loaded.camera, &loaded.settings.integrator);
+    assert_packets_match_single_paths("studio, relit", &relit, &loaded.camera, &loaded.settings.path);
 }
 
 #[test]

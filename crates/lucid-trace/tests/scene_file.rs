@@ -71,7 +71,7 @@ radiance = [0.2, 0.25, 0.3]
 "#,
     );
     let loaded = parse_scene(&text, Path::new("ok.toml")).unwrap();
-    assert_eq!((loaded.settings.spp, loaded.settings.integrator.max_depth, loaded.settings.seed), (3, 4, 9));
+    assert_eq!((loaded.settings.spp, loaded.settings.path.max_depth, loaded.settings.seed), (3, 4, 9));
     assert_eq!(loaded.scene.materials.len(), 3);
     assert_eq!(loaded.scene.lights.len(), 2);
     assert!(matches!(loaded.scene.lights[1], Light::ConstantEnvironment { .. }));
@@ -214,4 +214,31 @@ fn every_shipped_scene_loads_and_renders_finite_pixels() {
         count += 1;
     }
     assert!(count >= 4, "scenes found: {count}");
+}
+
+#[test]
+fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
+    let light = "[[shapes]]\ntype = \"quad\"\nmaterial = \"m\"\nemission = [1, 1, 1]\n[materials.m]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n";
+    for (name, expected) in [
+        ("path", lucid_trace::Integrator::Path),
+        ("bdpt", lucid_trace::Integrator::Bdpt),
+        ("light-tracing", lucid_trace::Integrator::LightTracing),
+    ] {
+        let text = scene(&format!("[integrator]\ntype = \"{name}\"\n{light}"));
+        assert_eq!(parse_scene(&text, Path::new("i.toml")).unwrap().settings.integrator, expected);
+    }
+    // Without the key: path tracing.
+    let default = parse_scene(&scene(light), Path::new("i.toml")).unwrap();
+    assert_eq!(default.settings.integrator, lucid_trace::Integrator::Path);
+
+    let err = parse_scene(&scene(&format!("[integrator]\ntype = \"mlt\"\n{light}")), Path::new("u.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("u.toml") && err.contains("integrator.type") && err.contains("bdpt"), "{err}");
+
+    // Bidirectional integrators do not trace media: a scene with one is refused up front.
+    let media = "[media.fog]\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [0.5, 0.5, 0.5]\ng = 0.0\n";
+    let text = format!("global_medium = \"fog\"\n{}", scene(&format!("[integrator]\ntype = \"bdpt\"\n{light}{media}")));
+    let err = parse_scene(&text, Path::new("m.toml")).unwrap_err().to_string();
+    assert!(err.contains("m.toml") && err.contains("integrator.type") && err.contains("media"), "{err}");
 }

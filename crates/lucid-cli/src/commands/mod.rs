@@ -73,6 +73,21 @@ pub fn override_samples(
     Ok(())
 }
 
+/// Applies an `--integrator` override to a loaded scene, refusing one that cannot render it.
+pub fn override_integrator(
+    loaded: &mut lucid_trace::LoadedScene,
+    integrator: Option<lucid_trace::Integrator>,
+    scene: &str,
+) -> anyhow::Result<()> {
+    if let Some(integrator) = integrator {
+        integrator
+            .supports(&loaded.scene)
+            .map_err(|e| anyhow::anyhow!("{scene}: --integrator {}: {e}", integrator.name()))?;
+        loaded.settings.integrator = integrator;
+    }
+    Ok(())
+}
+
 /// Parses a background colour: `white`, `black`, `grey`, or `R,G,B` with components in [0,1].
 pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
     match text.to_ascii_lowercase().as_str() {

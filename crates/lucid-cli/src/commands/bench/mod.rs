@@ -1,6 +1,7 @@
 //! `lucid bench`: fixed-seed benchmarks that print a table (and optionally JSON).
 
 mod hdr;
+mod integrators;
 mod nerf;
 mod report;
 mod splat;
@@ -33,6 +34,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         match target {
             BenchTarget::Trace => results.push(bench_trace(args.quick)?),
             BenchTarget::Hdr => results.push(hdr::run(args.quick, args.write_stack.as_deref())?),
+            BenchTarget::Integrators => results.extend(integrators::run(&integrator_bench(&args))?),
             BenchTarget::Nerf | BenchTarget::Splat => {
                 for dataset in BenchDataset::all(&args)? {
                     results.push(run_trainer(&args, target, dataset)?);
@@ -63,6 +65,18 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The integrator benchmark's settings from the command line (`--quick`: 2 s, 64 pixels wide).
+fn integrator_bench(args: &BenchArgs) -> integrators::IntegratorBench {
+    integrators::IntegratorBench {
+        scenes: args.scenes.clone().unwrap_or_else(|| vec!["cornell".into(), "caustic".into()]),
+        integrators: args.integrators.clone().unwrap_or_else(|| lucid_trace::Integrator::ALL.map(|(i, _)| i).to_vec()),
+        seconds: if args.quick { args.seconds.min(2.0) } else { args.seconds },
+        width: if args.quick { args.width.min(64) } else { args.width },
+        reference_factor: args.reference_factor,
+        cache: integrators::default_cache(),
+    }
+}
+
 /// The dataset a NeRF or splat benchmark trains on.
 pub struct BenchDataset {
     /// Its folder.
@@ -78,24 +92,24 @@ impl BenchDataset {
     /// One set per `--scenes` entry in `out/bench/SCENE`, or the one `--dataset` names.
     fn all(args: &BenchArgs) -> anyhow::Result<Vec<Self>> {
         let allowed = lucid_datasets_gen::builtin::BENCHMARK_SCENES;
-        for scene in &args.scenes {
+        let scenes = args.trainer_scenes();
+        for scene in &scenes {
             anyhow::ensure!(
                 allowed.contains(&scene.as_str()) || scene == "object",
                 "--scenes: {scene:?} is not a benchmark scene (expected {} or object)",
                 allowed.join(", ")
             );
         }
-        anyhow::ensure!(!args.scenes.is_empty(), "--scenes: name at least one scene");
+        anyhow::ensure!(!scenes.is_empty(), "--scenes: name at least one scene");
         Ok(match &args.dataset {
             // A folder that is not there yet (or a generation of Lucid's cut short) gets the
             // first built-in scene; any dataset already there is benchmarked as it is.
             Some(root) => {
                 let unfinished = root.join("dataset.toml").is_file() && lucid_scene::Dataset::open(root).is_err();
-                let built_in = (!root.exists() || unfinished).then(|| args.scenes[0].clone());
+                let built_in = (!root.exists() || unfinished).then(|| scenes[0].clone());
                 vec![Self { root: root.clone(), built_in, options: args.data.options() }]
             }
-            None => args
-                .scenes
+            None => scenes
                 .iter()
                 .map(|scene| Self {
                     root: std::path::PathBuf::from(format!(
@@ -201,7 +215,7 @@ fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
         k.width,
         k.height,
         loaded.settings.spp,
-        loaded.settings.integrator.max_depth
+        loaded.settings.path.max_depth
     );
     println!("{:<22} {:>14}", "metric", "value");
     println!("{:<22} {:>14.3}", "wall time (s)", seconds);
@@ -212,7 +226,7 @@ fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
     println!("{:<22} {:>14.5}", "reference mean", CORNELL_REFERENCE_MEAN);
     Ok(json!({
         "benchmark": "trace", "quick": quick, "width": k.width, "height": k.height,
-        "spp": loaded.settings.spp, "max_depth": loaded.settings.integrator.max_depth, "threads": threads,
+        "spp": loaded.settings.spp, "max_depth": loaded.settings.path.max_depth, "threads": threads,
         "seconds": seconds, "paths": out.paths, "rays": out.rays,
         "paths_per_second": out.paths as f64 / seconds, "rays_per_second": out.rays as f64 / seconds,
         "image_mean": mean, "reference_mean": CORNELL_REFERENCE_MEAN,

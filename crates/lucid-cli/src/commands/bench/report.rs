@@ -71,7 +71,10 @@ pub fn write_report(results: &[Value], quick: bool, dir: &Path) -> anyhow::Resul
             line_plot("Held-out PSNR over training time", "training time (s)", "PSNR (dB)", &trainers, (620, 380))?;
         r.heading("Training curves").plots(&[svg]);
     }
-    for result in results {
+    for result in results.iter().filter(|r| r["benchmark"] == "integrators") {
+        integrator_section(&mut r, result)?;
+    }
+    for result in results.iter().filter(|r| r["benchmark"] != "integrators") {
         let name = result["benchmark"].as_str().unwrap_or("benchmark");
         let mut rows = Vec::new();
         numbers("", result, &mut rows);
@@ -117,6 +120,65 @@ pub fn write_report(results: &[Value], quick: bool, dir: &Path) -> anyhow::Resul
     let path = dir.join("report.html");
     r.write(&path)?;
     Ok(path)
+}
+
+/// One scene of `lucid bench integrators`: relative MSE over time (log-log) and the table.
+fn integrator_section(r: &mut Report, result: &Value) -> anyhow::Result<()> {
+    let scene = result["scene"].as_str().unwrap_or("?");
+    let entries = result["integrators"].as_array().cloned().unwrap_or_default();
+    let series: Vec<Series> = entries
+        .iter()
+        .map(|e| Series {
+            name: e["integrator"].as_str().unwrap_or("?").to_string(),
+            points: e["curve"]
+                .as_array()
+                .map(|c| {
+                    c.iter()
+                        .filter_map(|p| Some((p["seconds"].as_f64()?.log10(), p["relative_mse"].as_f64()?.log10())))
+                        .collect()
+                })
+                .unwrap_or_default(),
+        })
+        .collect();
+    r.heading(&format!("Integrators on {scene}"));
+    r.note(&format!(
+        "{}×{} pixels, max depth {}, {} s per integrator on {} threads; reference: {} at {} spp (image mean {:.5}). \
+         Relative MSE = mean of (x − ref)² / (ref² + 0.01); a slope of −1 is error ∝ 1/time.",
+        result["width"],
+        result["height"],
+        result["max_depth"],
+        result["budget_seconds"],
+        result["threads"],
+        result["reference"]["integrator"].as_str().unwrap_or("?"),
+        result["reference"]["spp"],
+        result["reference_mean"].as_f64().unwrap_or(f64::NAN)
+    ));
+    let svg = line_plot(
+        &format!("{scene}: error against render time"),
+        "log10 render time (s)",
+        "log10 relative MSE",
+        &series,
+        (620, 380),
+    )?;
+    r.plots(&[svg]);
+    let rows: Vec<Vec<String>> = entries
+        .iter()
+        .map(|e| {
+            let n = |k: &str| e[k].as_f64().map_or("–".into(), format_number);
+            vec![
+                e["integrator"].as_str().unwrap_or("?").to_string(),
+                n("spp"),
+                n("seconds"),
+                n("relative_mse"),
+                n("relative_mse_vs_path"),
+                n("log_slope"),
+                n("seconds_to_path_error"),
+                n("image_mean"),
+            ]
+        })
+        .collect();
+    r.table(&["integrator", "spp", "seconds", "relative MSE", "vs path", "slope", "s to path's error", "mean"], &rows);
+    Ok(())
 }
 
 #[cfg(test)]

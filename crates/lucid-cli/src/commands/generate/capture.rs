@@ -24,6 +24,8 @@ struct CaptureRecord<'a> {
     k1: f32,
     radius: f32,
     spp: u32,
+    #[serde(skip_serializing_if = "super::is_path_tracing")]
+    integrator: &'static str,
     max_depth: u32,
     seed: u64,
     pose_noise_degrees: f32,
@@ -80,7 +82,8 @@ pub fn run(args: &GenArgs, loaded: lucid_trace::LoadedScene) -> anyhow::Result<(
         k1: args.k1,
         radius: args.radius,
         spp: loaded.settings.spp,
-        max_depth: loaded.settings.integrator.max_depth,
+        integrator: loaded.settings.integrator.name(),
+        max_depth: loaded.settings.path.max_depth,
         seed: loaded.settings.seed,
         pose_noise_degrees: args.pose_noise,
         position_noise: args.position_noise,

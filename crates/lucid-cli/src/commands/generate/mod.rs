@@ -20,6 +20,11 @@ use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
 use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, held_out_directions, sphere_directions};
 use lucid_datasets_gen::writer::ViewRenderer;
 
+/// Whether an integrator's name is the default's.
+pub(crate) fn is_path_tracing(name: &&'static str) -> bool {
+    *name == lucid_trace::Integrator::Path.name()
+}
+
 /// What `dataset.toml` records.
 #[derive(Serialize)]
 struct DatasetRecord<'a> {
@@ -32,6 +37,9 @@ struct DatasetRecord<'a> {
     radius: f32,
     full_sphere: bool,
     spp: u32,
+    /// Written only when not the default, so that folders made before it existed resume.
+    #[serde(skip_serializing_if = "is_path_tracing")]
+    integrator: &'static str,
     max_depth: u32,
     seed: u64,
     exposure_times: Option<Vec<f32>>,
@@ -103,6 +111,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     }
     let mut loaded = lucid_datasets_gen::builtin::load_named_scene(&args.scene)?;
     crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
+    crate::commands::override_integrator(&mut loaded, args.integrator, &args.scene)?;
     if let RigArg::Capture = rig {
         return capture::run(&args, loaded);
     }
@@ -204,7 +213,8 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         radius: args.radius,
         full_sphere: args.full_sphere,
         spp: loaded.settings.spp,
-        max_depth: loaded.settings.integrator.max_depth,
+        integrator: loaded.settings.integrator.name(),
+        max_depth: loaded.settings.path.max_depth,
         seed: loaded.settings.seed,
         exposure_times: brackets.as_ref().map(|b| b.exposure_times.clone()),
         response: brackets.as_ref().map(|_| match args.response {

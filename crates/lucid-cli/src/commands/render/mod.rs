@@ -29,11 +29,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let mut loaded = load_scene(&args.scene)?;
     crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
+    crate::commands::override_integrator(&mut loaded, args.integrator, &args.scene.display().to_string())?;
     if let Some(depth) = args.max_depth {
         if depth == 0 {
             bail!("--max-depth must be at least 1");
         }
-        loaded.settings.integrator.max_depth = depth;
+        loaded.settings.path.max_depth = depth;
     }
     if args.width.is_some() || args.height.is_some() {
         loaded.camera = resized(&loaded.camera, args.width, args.height)?;
@@ -42,7 +43,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         RenderCamera::Pinhole(c) => c.intrinsics,
         RenderCamera::ThinLens(c) => c.pinhole.intrinsics,
     };
-    tracing::info!("rendering {} at {}x{}, {} spp", args.scene.display(), k.width, k.height, loaded.settings.spp);
+    tracing::info!(
+        "rendering {} at {}x{}, {} spp, {} integrator",
+        args.scene.display(),
+        k.width,
+        k.height,
+        loaded.settings.spp,
+        loaded.settings.integrator.name()
+    );
     // One writer per output (a missing folder is reported when the images are written).
     let parent = args.output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
     let _lock = parent.is_dir().then(|| lucid_image::output::OutputLock::file(&args.output)).transpose()?;
@@ -61,10 +69,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mean = out.colour.mean();
     let samples = k.width as f64 * k.height as f64 * loaded.settings.spp as f64;
     println!(
-        "rendered {}x{} at {} spp in {seconds:.2} s ({:.2} M samples/s); image mean {:.5} (r {:.5} g {:.5} b {:.5})",
+        "rendered {}x{} at {} spp ({}) in {seconds:.2} s ({:.2} M samples/s); image mean {:.5} (r {:.5} g {:.5} b {:.5})",
         k.width,
         k.height,
         loaded.settings.spp,
+        loaded.settings.integrator.name(),
         samples / seconds / 1e6,
         (mean[0] + mean[1] + mean[2]) / 3.0,
         mean[0],
