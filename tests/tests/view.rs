@@ -277,7 +277,9 @@ fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
     assert!(statuses.iter().all(|s| *s == 200 || *s == 503), "{statuses:?}");
-    assert!(statuses.iter().filter(|s| **s == 200).count() >= 5, "{statuses:?}");
+    // At least the queue's four: five when the renderer took one before the rest arrived, but
+    // on a busy machine all sixteen can arrive first (CI saw exactly four once).
+    assert!(statuses.iter().filter(|s| **s == 200).count() >= 4, "{statuses:?}");
     assert_eq!(viewer.get("/api/info").status, 200);
 }
 

@@ -16,6 +16,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod scene_file;
+pub mod sppm;
 
 pub use integrator::{LightStrategy, PathTracer};
 pub use material::{Material, Texture};

@@ -13,6 +13,7 @@ use crate::bdpt::{Bidirectional, CameraImportance, SplatFilm, Strategies, Subpat
 use crate::integrator::{PathSample, PathTracer};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
+use crate::sppm::PhotonMapping;
 
 /// The camera models a render can use.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,7 +41,7 @@ impl RenderCamera {
 }
 
 /// The light-transport algorithm of a render.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Integrator {
     /// Unidirectional path tracing with next-event estimation and MIS.
     #[default]
@@ -50,12 +51,19 @@ pub enum Integrator {
     /// Light tracing: paths from the lights connected to the camera (and emitters seen
     /// directly); no path through a specular surface to the camera.
     LightTracing,
+    /// Stochastic progressive photon mapping: `spp` passes of one camera path per pixel and
+    /// a batch of photons, radii shrinking with α.
+    Sppm(PhotonMapping),
 }
 
 impl Integrator {
     /// Every integrator with the name the scene file and `--integrator` use.
-    pub const ALL: [(Integrator, &'static str); 3] =
-        [(Integrator::Path, "path"), (Integrator::Bdpt, "bdpt"), (Integrator::LightTracing, "light-tracing")];
+    pub const ALL: [(Integrator, &'static str); 4] = [
+        (Integrator::Path, "path"),
+        (Integrator::Bdpt, "bdpt"),
+        (Integrator::LightTracing, "light-tracing"),
+        (Integrator::Sppm(PhotonMapping::DEFAULT), "sppm"),
+    ];
 
     /// The integrator called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -64,7 +72,10 @@ impl Integrator {
 
     /// Its name.
     pub fn name(self) -> &'static str {
-        Self::ALL.iter().find(|(i, _)| *i == self).map_or("path", |(_, n)| n)
+        Self::ALL
+            .iter()
+            .find(|(i, _)| std::mem::discriminant(i) == std::mem::discriminant(&self))
+            .map_or("path", |(_, n)| n)
     }
 
     /// The names, for messages.
@@ -76,7 +87,7 @@ impl Integrator {
     pub fn supports(self, scene: &Scene) -> Result<(), String> {
         match self {
             Integrator::Path => Ok(()),
-            Integrator::Bdpt | Integrator::LightTracing if scene.has_media() => Err(format!(
+            Integrator::Bdpt | Integrator::LightTracing | Integrator::Sppm(_) if scene.has_media() => Err(format!(
                 "the {} integrator does not handle participating media or medium interfaces; use \"path\"",
                 self.name()
             )),
@@ -134,6 +145,7 @@ pub fn render(
         Integrator::Path => render_paths(scene, camera, settings, progress),
         Integrator::Bdpt => render_bidirectional(scene, camera, settings, Strategies::All, progress),
         Integrator::LightTracing => render_bidirectional(scene, camera, settings, Strategies::LightTracing, progress),
+        Integrator::Sppm(params) => crate::sppm::render(scene, camera, settings, params, progress),
     }
 }
 
@@ -329,18 +341,18 @@ const PATHS_PER_CALL: usize = 1024;
 
 /// A pixel's samples summed.
 #[derive(Clone, Copy, Default)]
-struct PixelSum {
-    radiance: Vec3,
+pub(crate) struct PixelSum {
+    pub(crate) radiance: Vec3,
     normal: Vec3,
     albedo: Vec3,
     /// Samples whose camera ray hit geometry.
     alpha: f32,
     depth: f32,
-    rays: u64,
+    pub(crate) rays: u64,
 }
 
 impl PixelSum {
-    fn add(&mut self, ray: &lucid_scene::Ray, s: &PathSample, forward: Vec3) {
+    pub(crate) fn add(&mut self, ray: &lucid_scene::Ray, s: &PathSample, forward: Vec3) {
         self.rays += s.rays as u64;
         // Samples that produce NaN/∞ (numerical accidents) are dropped rather than
         // poisoning the pixel; a finite image is part of the contract.
@@ -356,7 +368,7 @@ impl PixelSum {
     }
 
     /// Colour, depth, normal and albedo with alpha.
-    fn finish(&self, spp: u32, hide_emitters: bool) -> [[f32; 4]; 4] {
+    pub(crate) fn finish(&self, spp: u32, hide_emitters: bool) -> [[f32; 4]; 4] {
         let n = spp as f32;
         let (radiance, alpha) = (self.radiance, self.alpha);
         // Straight alpha: the colour of covered samples is divided by coverage when some

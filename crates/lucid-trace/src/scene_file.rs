@@ -14,7 +14,9 @@
 //! focus_distance = 3.9
 //!
 //! [integrator]
-//! type = "path"                  # path | bdpt | light-tracing (bidirectional: no media)
+//! type = "path"                  # path | bdpt | light-tracing | sppm (all but path: no media)
+//! # sppm only: photons = 65536 (per pass; default one per pixel), radius = 0.02 (initial, world
+//! # units; default four pixel footprints at the scene's centre), alpha = 0.6667
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5
@@ -158,6 +160,10 @@ struct IntegratorSection {
     rr_depth: u32,
     hide_emitters: bool,
     seed: u64,
+    /// sppm: photons per pass, initial radius, α.
+    photons: Option<u32>,
+    radius: Option<f32>,
+    alpha: Option<f32>,
 }
 
 impl Default for IntegratorSection {
@@ -170,6 +176,9 @@ impl Default for IntegratorSection {
             rr_depth: p.rr_depth,
             hide_emitters: p.hide_emitters,
             seed: 0,
+            photons: None,
+            radius: None,
+            alpha: None,
         }
     }
 }
@@ -463,9 +472,31 @@ impl Builder<'_> {
         if i.spp == 0 || i.max_depth == 0 {
             return Err(self.invalid("integrator", "spp and max_depth must be at least 1"));
         }
-        let integrator = Integrator::from_name(&i.kind).ok_or_else(|| {
+        let mut integrator = Integrator::from_name(&i.kind).ok_or_else(|| {
             self.invalid("integrator.type", format!("unknown integrator {:?} (one of {})", i.kind, Integrator::names()))
         })?;
+        if let Integrator::Sppm(params) = &mut integrator {
+            if let Some(photons) = i.photons {
+                if photons == 0 || photons > 100_000_000 {
+                    return Err(self.invalid("integrator.photons", "must be in 1..=100000000"));
+                }
+                params.photons = photons;
+            }
+            if let Some(radius) = i.radius {
+                if !(radius.is_finite() && radius > 0.0) {
+                    return Err(self.invalid("integrator.radius", "must be a positive number"));
+                }
+                params.radius = radius;
+            }
+            if let Some(alpha) = i.alpha {
+                if !(alpha > 0.0 && alpha < 1.0) {
+                    return Err(self.invalid("integrator.alpha", "must be in (0, 1)"));
+                }
+                params.alpha = alpha;
+            }
+        } else if i.photons.is_some() || i.radius.is_some() || i.alpha.is_some() {
+            return Err(self.invalid("integrator", "photons, radius and alpha belong to type = \"sppm\""));
+        }
         let settings = RenderSettings {
             spp: i.spp,
             seed: i.seed,

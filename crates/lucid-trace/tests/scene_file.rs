@@ -223,9 +223,24 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("path", lucid_trace::Integrator::Path),
         ("bdpt", lucid_trace::Integrator::Bdpt),
         ("light-tracing", lucid_trace::Integrator::LightTracing),
+        ("sppm", lucid_trace::Integrator::Sppm(lucid_trace::sppm::PhotonMapping::DEFAULT)),
     ] {
         let text = scene(&format!("[integrator]\ntype = \"{name}\"\n{light}"));
         assert_eq!(parse_scene(&text, Path::new("i.toml")).unwrap().settings.integrator, expected);
+    }
+    // Photon mapping's settings, only with type = "sppm".
+    let text = scene(&format!("[integrator]\ntype = \"sppm\"\nphotons = 500\nradius = 0.05\nalpha = 0.5\n{light}"));
+    let lucid_trace::Integrator::Sppm(p) = parse_scene(&text, Path::new("s.toml")).unwrap().settings.integrator else {
+        panic!("sppm expected")
+    };
+    assert_eq!((p.photons, p.radius, p.alpha), (500, 0.05, 0.5));
+    for (key, text) in [
+        ("integrator.alpha", format!("[integrator]\ntype = \"sppm\"\nalpha = 1.5\n{light}")),
+        ("integrator.radius", format!("[integrator]\ntype = \"sppm\"\nradius = -1.0\n{light}")),
+        ("integrator", format!("[integrator]\ntype = \"bdpt\"\nphotons = 10\n{light}")),
+    ] {
+        let err = parse_scene(&scene(&text), Path::new("s.toml")).unwrap_err().to_string();
+        assert!(err.contains(key), "{err}");
     }
     // Without the key: path tracing.
     let default = parse_scene(&scene(light), Path::new("i.toml")).unwrap();

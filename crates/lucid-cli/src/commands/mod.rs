@@ -83,7 +83,12 @@ pub fn override_integrator(
         integrator
             .supports(&loaded.scene)
             .map_err(|e| anyhow::anyhow!("{scene}: --integrator {}: {e}", integrator.name()))?;
-        loaded.settings.integrator = integrator;
+        // A scene that already photon-maps keeps its own photon settings.
+        if !(matches!(integrator, lucid_trace::Integrator::Sppm(_))
+            && matches!(loaded.settings.integrator, lucid_trace::Integrator::Sppm(_)))
+        {
+            loaded.settings.integrator = integrator;
+        }
     }
     Ok(())
 }

@@ -13,38 +13,53 @@ const SCALE: f64 = (1u64 << 28) as f64;
 /// Largest splat kept (a NaN or an absurd firefly is dropped rather than wrap a sum).
 const LIMIT: f32 = 1e7;
 
+/// An RGB sum that threads add to in any order with the same result.
+#[derive(Default)]
+pub(crate) struct FixedRgb([AtomicI64; 3]);
+
+impl FixedRgb {
+    /// Adds `value` (dropped if not finite or absurdly large).
+    #[inline]
+    pub(crate) fn add(&self, value: Vec3) {
+        if !(value.is_finite() && value.max_element() < LIMIT && value.min_element() > -LIMIT) || value == Vec3::ZERO {
+            return;
+        }
+        for (sum, v) in self.0.iter().zip(value.to_array()) {
+            sum.fetch_add((v as f64 * SCALE).round() as i64, Ordering::Relaxed);
+        }
+    }
+
+    /// The sum so far.
+    pub(crate) fn get(&self) -> Vec3 {
+        let c = |k: usize| (self.0[k].load(Ordering::Relaxed) as f64 / SCALE) as f32;
+        Vec3::new(c(0), c(1), c(2))
+    }
+}
+
 /// Per-pixel RGB sums of splatted radiance.
 pub(crate) struct SplatFilm {
     width: usize,
     height: usize,
-    sums: Vec<AtomicI64>,
+    sums: Vec<FixedRgb>,
 }
 
 impl SplatFilm {
     pub(crate) fn new(width: usize, height: usize) -> Self {
-        Self { width, height, sums: (0..width * height * 3).map(|_| AtomicI64::new(0)).collect() }
+        Self { width, height, sums: (0..width * height).map(|_| FixedRgb::default()).collect() }
     }
 
     /// Adds `value` to the pixel containing image point `raster`.
     pub(crate) fn add(&self, raster: Vec2, value: Vec3) {
-        if !(value.is_finite() && value.max_element() < LIMIT && value.min_element() > -LIMIT) || value == Vec3::ZERO {
-            return;
-        }
         let (x, y) = (raster.x.floor(), raster.y.floor());
         if x < 0.0 || y < 0.0 || x >= self.width as f32 || y >= self.height as f32 {
             return;
         }
-        let base = 3 * (y as usize * self.width + x as usize);
-        for (c, v) in value.to_array().into_iter().enumerate() {
-            self.sums[base + c].fetch_add((v as f64 * SCALE).round() as i64, Ordering::Relaxed);
-        }
+        self.sums[y as usize * self.width + x as usize].add(value);
     }
 
     /// The sum at pixel `(x, y)`.
     pub(crate) fn get(&self, x: usize, y: usize) -> Vec3 {
-        let base = 3 * (y * self.width + x);
-        let c = |k: usize| (self.sums[base + k].load(Ordering::Relaxed) as f64 / SCALE) as f32;
-        Vec3::new(c(0), c(1), c(2))
+        self.sums[y * self.width + x].get()
     }
 
     pub(crate) fn height(&self) -> usize {

@@ -9,16 +9,16 @@
 //! [`crate::render::Integrator::supports`] before a render starts.
 
 mod camera;
-mod emission;
+pub(crate) mod emission;
 mod film;
 mod mis;
-mod vertex;
+pub(crate) mod vertex;
 
 use glam::{Vec2, Vec3};
 use lucid_scene::Ray;
 
 pub(crate) use camera::CameraImportance;
-pub(crate) use film::SplatFilm;
+pub(crate) use film::{FixedRgb, SplatFilm};
 
 use crate::bsdf::Bsdf;
 use crate::integrator::{
@@ -49,6 +49,7 @@ pub(crate) struct Subpaths {
 pub(crate) struct Bidirectional<'a> {
     ctx: Context<'a>,
     max_depth: u32,
+    rr_depth: u32,
     hide_emitters: bool,
     strategies: Strategies,
 }
@@ -63,7 +64,7 @@ impl<'a> Bidirectional<'a> {
             sphere: SceneSphere { centre, radius: scene.radius.max(1e-3) },
             light_pick: light_selection_probability(scene),
         };
-        Self { ctx, max_depth: path.max_depth, hide_emitters: path.hide_emitters, strategies }
+        Self { ctx, max_depth: path.max_depth, rr_depth: path.rr_depth, hide_emitters: path.hide_emitters, strategies }
     }
 
     /// One sample through the camera ray `ray`: returns what reaches the camera along it
@@ -143,6 +144,11 @@ impl<'a> Bidirectional<'a> {
     ) {
         let scene = self.ctx.scene;
         let mut pdf_fwd = pdf_dir;
+        // Russian roulette on the throughput relative to the start (light paths start at the
+        // light's power, not 1). The MIS weights ignore it, as pbrt's and Mitsuba's do: they
+        // are still a partition of unity over the strategies, and each strategy divides by
+        // its survival probabilities, so the estimate stays unbiased.
+        let start = beta.max_element();
         while path.len() < max_vertices && beta != Vec3::ZERO {
             let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
             out.rays += 1;
@@ -200,6 +206,13 @@ impl<'a> Bidirectional<'a> {
             ray = spawn(&hit, wi);
             let n = path.len();
             path[n - 2].pdf_rev = path[n - 1].convert_density(pdf_rev, &path[n - 2], &self.ctx);
+            if n > self.rr_depth as usize {
+                let q = (beta.max_element() / start).min(0.95);
+                if rng.uniform() >= q {
+                    break;
+                }
+                beta /= q;
+            }
         }
     }
 

@@ -4,7 +4,8 @@
 //! after every pass its relative MSE against the reference is recorded with the render time
 //! so far. From that curve: the error after the time budget, the time to reach the path
 //! tracer's error at the budget, and the slope of log error against log time (−1 where the
-//! error falls like 1/time, i.e. per-pixel RMSE like 1/√time).
+//! error falls like 1/time, i.e. per-pixel RMSE like 1/√time). Photon mapping, consistent but
+//! biased, renders from scratch with doubling passes instead (see [`consistent`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -83,6 +84,9 @@ fn progressive(
     reference: Option<&Image>,
     seed: u64,
 ) -> (Image, u64, Vec<(f64, f64)>) {
+    if let Integrator::Sppm(_) = integrator {
+        return consistent(loaded, integrator, seconds, reference, seed);
+    }
     let (w, h) = dimensions(&loaded.camera);
     let mut acc = Accumulator::new(w, h);
     let mut curve = Vec::new();
@@ -113,6 +117,33 @@ fn progressive(
         spp = next.min(left).round().clamp(1.0, 1_000_000.0) as u32;
     }
     (acc.image(), acc.samples, curve)
+}
+
+/// A consistent but biased integrator (photon mapping) cannot average independent renders:
+/// each curve point is one render from scratch with twice the passes of the one before, up to
+/// the last that fits the budget; the image returned is that last render.
+fn consistent(
+    loaded: &LoadedScene,
+    integrator: Integrator,
+    seconds: f64,
+    reference: Option<&Image>,
+    seed: u64,
+) -> (Image, u64, Vec<(f64, f64)>) {
+    let mut curve = Vec::new();
+    let mut spp = 1u32;
+    loop {
+        let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
+        let started = Instant::now();
+        let image = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour;
+        let took = started.elapsed().as_secs_f64();
+        if let Some(r) = reference {
+            curve.push((took, relative_mse(&image, r)));
+        }
+        if 2.0 * took > seconds || spp >= 1 << 20 {
+            return (image, spp as u64, curve);
+        }
+        spp *= 2;
+    }
 }
 
 fn dimensions(camera: &RenderCamera) -> (usize, usize) {

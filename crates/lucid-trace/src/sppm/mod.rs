@@ -1,0 +1,346 @@
+//! Stochastic progressive photon mapping (Hachisuka & Jensen 2009; pbrt-v3's `SPPMIntegrator`).
+//! Each pass traces one camera path per pixel to its visible points — the non-specular
+//! surfaces it reaches through specular bounces, where direct light is estimated by light
+//! sampling — then shoots photons from the lights and adds each photon that lands within a
+//! visible point's radius to that point's flux. After the pass every point's radius shrinks so
+//! that the photons it keeps grow by a fraction α of those it received:
+//! N ← N + αM, R ← R √(N_new/(N + M)), τ ← (τ + β Φ) R_new²/R². The pixel is
+//! L_direct/passes + τ / (passes · photons per pass · π R²): biased for any finite number of
+//! passes, consistent as they grow (the bias shrinks with the radius; a test shows it).
+//!
+//! A visible point stands for the non-specular part of its BSDF; a mixed material (plastic)
+//! continues the camera path only when its sample picks the specular lobe, weighted by that
+//! choice, so specular reflections of diffuse surfaces are not lost. Each pixel keeps up to
+//! [`SLOTS`] visible points (first, second, third non-specular surface along such a chain),
+//! each with its own radius and flux. Photon and flux sums are fixed-point atomics, so an
+//! image is bit-identical whatever the number of threads.
+
+mod grid;
+
+use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use glam::Vec3;
+use lucid_image::Image;
+use lucid_scene::Ray;
+use rayon::prelude::*;
+
+use crate::bdpt::FixedRgb;
+use crate::bdpt::emission::{SceneSphere, sample_emission};
+use crate::bdpt::vertex::{Transport, shading_correction};
+use crate::bsdf::Bsdf;
+use crate::integrator::{Frame, light_selection_probability, pick_light_index, spawn, spawn_origin};
+use crate::material::SurfaceBsdf;
+use crate::render::{PixelSum, RenderCamera, RenderOutput, RenderSettings};
+use crate::sampling::{Rng, mix};
+use crate::scene::Scene;
+use grid::PointGrid;
+
+/// Visible points kept per pixel.
+pub(crate) const SLOTS: usize = 3;
+
+/// Parameters of photon mapping.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotonMapping {
+    /// Photons per pass (0: one per pixel).
+    pub photons: u32,
+    /// Initial search radius in world units (0: four pixel footprints at the distance of the
+    /// scene's centre from the camera).
+    pub radius: f32,
+    /// Fraction of a pass's photons a visible point keeps (Hachisuka–Jensen's α).
+    pub alpha: f32,
+}
+
+impl PhotonMapping {
+    /// One photon per pixel, an automatic radius, α = 2/3.
+    pub const DEFAULT: PhotonMapping = PhotonMapping { photons: 0, radius: 0.0, alpha: 2.0 / 3.0 };
+}
+
+impl Default for PhotonMapping {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// A non-specular surface a camera path reached in this pass.
+#[derive(Clone, Copy)]
+struct VisiblePoint {
+    /// `pixel · SLOTS + slot`.
+    slot: u32,
+    point: Vec3,
+    frame: Frame,
+    wo: Vec3,
+    bsdf: SurfaceBsdf,
+    beta: Vec3,
+}
+
+/// A slot's statistics across passes.
+#[derive(Clone, Copy)]
+struct SlotStats {
+    photons: f32,
+    radius: f32,
+    tau: Vec3,
+}
+
+/// What one pass's camera path gives a pixel.
+#[derive(Default)]
+struct CameraPass {
+    sample: crate::integrator::PathSample,
+    points: Vec<VisiblePoint>,
+}
+
+/// Renders with SPPM: `settings.spp` passes.
+pub(crate) fn render(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    params: PhotonMapping,
+    progress: &(dyn Fn(usize) + Sync),
+) -> RenderOutput {
+    let k = camera.pinhole().intrinsics;
+    let (w, h) = (k.width as usize, k.height as usize);
+    let forward = camera.pinhole().forward();
+    let passes = settings.spp.max(1);
+    let photons = if params.photons > 0 { params.photons as usize } else { w * h };
+    let bounds = scene.bvh.bounds();
+    let centre = if bounds.min.x.is_finite() { bounds.centre() } else { Vec3::ZERO };
+    let sphere = SceneSphere { centre, radius: scene.radius.max(1e-3) };
+    let radius = if params.radius > 0.0 {
+        params.radius
+    } else {
+        4.0 * (centre - camera.pinhole().position()).length().max(1e-3) / k.fx
+    };
+    let mut stats = vec![SlotStats { photons: 0.0, radius, tau: Vec3::ZERO }; w * h * SLOTS];
+    let mut pixels = vec![PixelSum::default(); w * h];
+    let mut photon_rays = 0u64;
+    for pass in 0..passes {
+        let pass_seed = mix(settings.seed ^ (pass as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        // 1. Camera paths to their visible points.
+        let camera_passes: Vec<(Ray, CameraPass)> = (0..w * h)
+            .into_par_iter()
+            .map(|p| {
+                let (i, j) = (p % w, p / w);
+                let mut rng = Rng::new(pass_seed, p as u64);
+                let jitter = rng.uniform2();
+                let lens = rng.uniform2();
+                let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                (ray, camera_path(scene, settings, ray, p as u32, &mut rng))
+            })
+            .collect();
+        let mut points = Vec::new();
+        for (p, (ray, cp)) in camera_passes.into_iter().enumerate() {
+            pixels[p].add(&ray, &cp.sample, forward);
+            points.extend(cp.points);
+        }
+        // 2. The grid over this pass's visible points with their slots' current radii.
+        let spheres: Vec<(Vec3, f32)> = points.iter().map(|v| (v.point, stats[v.slot as usize].radius)).collect();
+        let grid = PointGrid::new(&spheres);
+        let flux: Vec<FixedRgb> = (0..points.len()).map(|_| FixedRgb::default()).collect();
+        let counts: Vec<AtomicU32> = (0..points.len()).map(|_| AtomicU32::new(0)).collect();
+        // 3. Photons.
+        let photon_seed = mix(pass_seed ^ 0x0050_4F54_4F4E);
+        photon_rays += (0..photons)
+            .into_par_iter()
+            .map(|n| {
+                let mut rng = Rng::new(photon_seed, n as u64);
+                trace_photon(scene, settings, sphere, &mut rng, |at, wi, beta| {
+                    for &v in grid.candidates(at) {
+                        let vp = &points[v as usize];
+                        let r = spheres[v as usize].1;
+                        if (vp.point - at).length_squared() > r * r {
+                            continue;
+                        }
+                        let f = vp.bsdf.eval(vp.wo, vp.frame.to_local(wi));
+                        flux[v as usize].add(beta * f);
+                        counts[v as usize].fetch_add(1, Ordering::Relaxed);
+                    }
+                }) as u64
+            })
+            .sum::<u64>();
+        // 4. Shrink the radii of the slots that received photons.
+        for (v, vp) in points.iter().enumerate() {
+            let m = counts[v].load(Ordering::Relaxed) as f32;
+            let s = &mut stats[vp.slot as usize];
+            let phi = vp.beta * flux[v].get();
+            if m > 0.0 {
+                let n_new = s.photons + params.alpha * m;
+                let r_new = s.radius * (n_new / (s.photons + m)).sqrt();
+                s.tau = (s.tau + phi) * (r_new * r_new) / (s.radius * s.radius);
+                s.photons = n_new;
+                s.radius = r_new;
+            } else {
+                s.tau += phi;
+            }
+        }
+        // Progress in rows, as the other renderers report it.
+        progress((pass + 1) as usize * h / passes as usize);
+    }
+    let emitted = (passes as f64 * photons as f64) as f32;
+    let mut planes = [(); 4].map(|_| Vec::with_capacity(w * h));
+    for (p, pixel) in pixels.iter().enumerate() {
+        let mut pixel = *pixel;
+        for s in &stats[p * SLOTS..(p + 1) * SLOTS] {
+            // τ / (N_e π R²) per pass, times the passes `finish` divides by.
+            pixel.radiance += passes as f32 * s.tau / (emitted * PI * s.radius * s.radius);
+        }
+        for (plane, value) in planes.iter_mut().zip(pixel.finish(passes, settings.path.hide_emitters)) {
+            plane.push(value);
+        }
+    }
+    let [colour, depth, normal, albedo] = planes.map(|p| Image::from_pixels(w, h, p));
+    let rays = photon_rays + pixels.iter().map(|p| p.rays).sum::<u64>();
+    RenderOutput { colour, depth, normal, albedo, paths: (w * h) as u64 * passes as u64, rays }
+}
+
+/// A camera path to its visible points: emitters seen directly or through specular bounces
+/// and direct light at each visible point go to the sample's radiance.
+fn camera_path(scene: &Scene, settings: &RenderSettings, camera_ray: Ray, pixel: u32, rng: &mut Rng) -> CameraPass {
+    let mut out = CameraPass::default();
+    let hide = settings.path.hide_emitters;
+    let mut ray = camera_ray;
+    let mut beta = Vec3::ONE;
+    for segment in 1..=settings.path.max_depth {
+        let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
+        out.sample.rays += 1;
+        let Some(hit) = found else {
+            if let Some(env) = scene.environment
+                && !(segment == 1 && hide)
+                && let Some((radiance, _)) = scene.lights[env].environment(ray.direction)
+            {
+                out.sample.radiance += beta * radiance;
+            }
+            break;
+        };
+        let primitive = &scene.bvh.primitives()[hit.primitive as usize];
+        let material = &scene.materials[primitive.material as usize];
+        if segment == 1 {
+            out.sample.alpha = 1.0;
+            out.sample.distance = hit.t;
+            out.sample.normal = hit.shading_normal;
+            out.sample.albedo = material.albedo(hit.uv);
+        }
+        if let Some(l) = primitive.light
+            && !(segment == 1 && hide)
+        {
+            out.sample.radiance += beta * scene.lights[l as usize].emitted(hit.geometric_normal, -ray.direction);
+        }
+        let bsdf = material.bsdf(hit.uv);
+        let frame = Frame::new(hit.shading_normal, hit.tangent);
+        let wo = frame.to_local(-ray.direction);
+        if !bsdf.is_specular() {
+            if segment < settings.path.max_depth {
+                out.sample.radiance += beta * direct_light(scene, &hit, &bsdf, frame, wo, rng, &mut out.sample.rays);
+            }
+            if out.points.len() < SLOTS && segment < settings.path.max_depth {
+                out.points.push(VisiblePoint {
+                    slot: pixel * SLOTS as u32 + out.points.len() as u32,
+                    point: hit.point,
+                    frame,
+                    wo,
+                    bsdf,
+                    beta,
+                });
+            }
+        }
+        if segment >= settings.path.max_depth {
+            break;
+        }
+        // Only specular lobes continue: the visible point stands for the rest.
+        let Some(s) = bsdf.sample(wo, rng.uniform2(), rng.uniform()) else { break };
+        if !s.specular || s.pdf <= 0.0 {
+            break;
+        }
+        beta *= s.f * s.wi.z.abs() / s.pdf;
+        if beta == Vec3::ZERO {
+            break;
+        }
+        ray = spawn(&hit, frame.to_world(s.wi).normalize());
+    }
+    out
+}
+
+/// One light sample's direct light at a surface point, through the non-specular BSDF.
+fn direct_light(
+    scene: &Scene,
+    hit: &crate::geometry::Intersection,
+    bsdf: &SurfaceBsdf,
+    frame: Frame,
+    wo: Vec3,
+    rng: &mut Rng,
+    rays: &mut u32,
+) -> Vec3 {
+    if scene.lights.is_empty() {
+        return Vec3::ZERO;
+    }
+    let pick = pick_light_index(scene, rng);
+    let Some(ls) = scene.lights[pick].sample(hit.point, rng.uniform2()) else { return Vec3::ZERO };
+    if ls.pdf <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let wi = frame.to_local(ls.wi);
+    let f = bsdf.eval(wo, wi);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-3) } else { f32::INFINITY };
+    if scene.bvh.occluded(&spawn(hit, ls.wi), 0.0, t_max) {
+        return Vec3::ZERO;
+    }
+    f * wi.z.abs() * ls.li / (ls.pdf * light_selection_probability(scene))
+}
+
+/// Traces one photon, calling `deposit(point, direction towards where it came from, power)`
+/// at every non-specular surface after the first (direct light is the camera side's); returns
+/// the rays traced.
+fn trace_photon(
+    scene: &Scene,
+    settings: &RenderSettings,
+    sphere: SceneSphere,
+    rng: &mut Rng,
+    mut deposit: impl FnMut(Vec3, Vec3, Vec3),
+) -> u32 {
+    if scene.lights.is_empty() {
+        return 0;
+    }
+    let pick_pdf = light_selection_probability(scene);
+    let pick = pick_light_index(scene, rng);
+    let Some(e) = sample_emission(&scene.lights[pick], sphere, rng.uniform2(), rng.uniform2()) else { return 0 };
+    let cos = if e.normal == Vec3::ZERO { 1.0 } else { e.normal.dot(e.direction).abs() };
+    let mut beta = e.le * cos / (pick_pdf * e.pdf_pos * e.pdf_dir);
+    let mut ray = Ray { origin: spawn_origin(e.origin, e.normal, e.direction), direction: e.direction };
+    let mut rays = 0;
+    // The camera path adds at least one segment to the photon's.
+    for bounce in 0..settings.path.max_depth.saturating_sub(1) {
+        let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
+        rays += 1;
+        let Some(hit) = found else { break };
+        let primitive = &scene.bvh.primitives()[hit.primitive as usize];
+        let bsdf = scene.materials[primitive.material as usize].bsdf(hit.uv);
+        let towards_light = -ray.direction;
+        if bounce > 0 && !bsdf.is_specular() {
+            deposit(hit.point, towards_light, beta);
+        }
+        let frame = Frame::new(hit.shading_normal, hit.tangent);
+        let wo = frame.to_local(towards_light);
+        let Some(s) = bsdf.sample(wo, rng.uniform2(), rng.uniform()) else { break };
+        if s.pdf <= 0.0 || s.f == Vec3::ZERO {
+            break;
+        }
+        let wi = frame.to_world(s.wi).normalize();
+        let scattered = beta
+            * s.f
+            * s.wi.z.abs()
+            * (bsdf.adjoint_scale(wo, &s)
+                * shading_correction(frame.n, hit.geometric_normal, towards_light, wi, Transport::Importance)
+                / s.pdf);
+        // Russian roulette by how much of its power the bounce kept.
+        let q = (scattered.max_element() / beta.max_element()).min(1.0);
+        if rng.uniform() >= q {
+            break;
+        }
+        beta = scattered / q;
+        ray = spawn(&hit, wi);
+    }
+    rays
+}
