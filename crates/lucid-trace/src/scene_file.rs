@@ -15,8 +15,8 @@
 //!
 //! [integrator]
 //! type = "path"                  # path | bdpt | light-tracing | sppm (all but path: no media)
-//! # sppm only: photons = 65536 (per pass; default one per pixel), radius = 0.02 (initial, world
-//! # units; default four pixel footprints at the scene's centre), alpha = 0.6667
+//! # sppm only: photons = 65536 (per pass; default four per pixel), radius = 0.02 (initial,
+//! # world units; default two pixel widths at each visible point), alpha = 0.6667
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5
