@@ -282,3 +282,23 @@ fn rig_files_set_options_and_the_command_line_wins() {
     lucid_in(dir.path(), &["gen", "spheres", "--rig", "nope", "-o", "b"]).failure(&["nope", "not a rig"]);
     assert!(!dir.path().join("b").exists());
 }
+
+#[test]
+fn the_integrator_is_chosen_on_the_command_line_and_recorded() {
+    let dir = temp_dir();
+    let mut bdpt = vec!["gen", "caustic", "-o", "bdpt", "--integrator", "bdpt"];
+    bdpt.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &bdpt).success();
+    let mut path = vec!["gen", "caustic", "-o", "path"];
+    path.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &path).success();
+    let record = |name: &str| std::fs::read_to_string(dir.path().join(name).join("dataset.toml")).unwrap();
+    assert!(record("bdpt").contains("integrator = \"bdpt\""), "{}", record("bdpt"));
+    // The default is not written, so folders generated before the key existed still resume.
+    assert!(!record("path").contains("integrator"), "{}", record("path"));
+    // A scene the integrator cannot render is refused before anything is written.
+    let mut media = vec!["gen", "media", "-o", "media", "--integrator", "sppm"];
+    media.extend_from_slice(&ARGS);
+    lucid_in(dir.path(), &media).failure(&["media", "sppm"]);
+    assert!(!dir.path().join("media").exists());
+}
