@@ -13,7 +13,7 @@ use crate::rig::{OrbitRig, Rig};
 use crate::writer::{DatasetSpec, GenError, Shard, ViewRenderer, generate_dataset};
 
 /// The scenes of `configs/scenes/`, so `lucid gen NAME` works anywhere.
-const SCENES: [(&str, &str); 11] = [
+const SCENES: [(&str, &str); 12] = [
     ("cornell", include_str!("../../configs/scenes/cornell.toml")),
     ("spheres", include_str!("../../configs/scenes/spheres.toml")),
     ("materials", include_str!("../../configs/scenes/materials.toml")),
@@ -25,11 +25,24 @@ const SCENES: [(&str, &str); 11] = [
     ("toys", include_str!("../../configs/scenes/toys.toml")),
     ("caustic", include_str!("../../configs/scenes/caustic.toml")),
     ("door", include_str!("../../configs/scenes/door.toml")),
+    ("many-lights", include_str!("../../configs/scenes/many-lights.toml")),
 ];
 
 /// The built-in scenes' names.
-pub const SCENE_NAMES: [&str; 11] =
-    ["cornell", "spheres", "materials", "media", "object", "studio", "garden", "trophy", "toys", "caustic", "door"];
+pub const SCENE_NAMES: [&str; 12] = [
+    "cornell",
+    "spheres",
+    "materials",
+    "media",
+    "object",
+    "studio",
+    "garden",
+    "trophy",
+    "toys",
+    "caustic",
+    "door",
+    "many-lights",
+];
 
 /// The scenes of the NeRF and 3DGS benchmarks: object-centred like the NeRF-synthetic set and lit
 /// without delta lights, so that their truth converges (see [`ensure_benchmark_set`]).

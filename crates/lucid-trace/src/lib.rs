@@ -9,6 +9,7 @@ pub mod environment;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod light_grid;
 pub mod material;
 pub mod medium;
 pub mod packet;

@@ -49,6 +49,16 @@
 //! # a closed shape with `interior = "smoke"` (material type = "interface" for an invisible
 //! # boundary, or e.g. a dielectric) holds it; `global_medium = "smoke"` at the top fills the scene
 //!
+//! [[lights]]                     # a grid of count[0] × count[1] point lights over the
+//! type = "point_grid"            # parallelogram corner + s·edge_u + t·edge_v, each moved
+//! corner = [-2, 3, -2]           # within its cell by up to `jitter` (0..1) and tinted by
+//! edge_u = [4, 0, 0]             # up to ±`tint` per channel, from `seed`
+//! edge_v = [0, 0, 4]
+//! count = [64, 64]
+//! intensity = [0.01, 0.01, 0.01]
+//! jitter = 0.8
+//! tint = 0.5
+//!
 //! [[lights]]
 //! type = "environment"           # radiance = [r, g, b] or file = "sky.exr" (lat-long, relative
 //! file = "sky.exr"               # to the scene file) or sky = { zenith = [..], horizon = [..],
@@ -68,6 +78,7 @@ use crate::geometry::mesh_file::load_mesh;
 use crate::geometry::procedural::{self, TriangleMesh};
 use crate::integrator::PathTracer;
 use crate::light::Light;
+use crate::light_grid::{MAX_GRID_LIGHTS, PointLightGrid};
 use crate::material::{ImageTexture, Material, Texture, Wrap};
 use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
 use crate::render::{Integrator, RenderCamera, RenderSettings};
@@ -329,6 +340,19 @@ enum LightSection {
         direction: [f32; 3],
         irradiance: [f32; 3],
     },
+    PointGrid {
+        corner: [f32; 3],
+        edge_u: [f32; 3],
+        edge_v: [f32; 3],
+        count: [u32; 2],
+        intensity: [f32; 3],
+        #[serde(default)]
+        jitter: f32,
+        #[serde(default)]
+        tint: f32,
+        #[serde(default)]
+        seed: u64,
+    },
     Environment {
         radiance: Option<[f32; 3]>,
         file: Option<String>,
@@ -533,7 +557,37 @@ impl Builder<'_> {
             self.shape(&mut builder, &ids, &media, &format!("shapes[{k}]"), s)?;
         }
         for (k, l) in file.lights.iter().enumerate() {
-            builder.light(self.light(&format!("lights[{k}]"), l)?);
+            let key = format!("lights[{k}]");
+            match l {
+                LightSection::PointGrid { corner, edge_u, edge_v, count, intensity, jitter, tint, seed } => {
+                    self.finite(&key, &[*corner, *edge_u, *edge_v].concat())?;
+                    let lights = count[0] as u64 * count[1] as u64;
+                    if lights == 0 || lights > MAX_GRID_LIGHTS {
+                        return Err(
+                            self.invalid(format!("{key}.count"), format!("must make 1..={MAX_GRID_LIGHTS} lights"))
+                        );
+                    }
+                    for (name, v) in [("jitter", jitter), ("tint", tint)] {
+                        if !(0.0..=1.0).contains(v) {
+                            return Err(self.invalid(format!("{key}.{name}"), "must be in [0, 1]"));
+                        }
+                    }
+                    let grid = PointLightGrid {
+                        corner: Vec3::from(*corner),
+                        edge_u: Vec3::from(*edge_u),
+                        edge_v: Vec3::from(*edge_v),
+                        count: *count,
+                        intensity: self.colour(&format!("{key}.intensity"), *intensity)?,
+                        jitter: *jitter,
+                        tint: *tint,
+                        seed: *seed,
+                    };
+                    for light in grid.lights() {
+                        builder.light(light);
+                    }
+                }
+                _ => builder.light(self.light(&key, l)?),
+            }
         }
         let scene = builder.build();
         integrator.supports(&scene).map_err(|reason| self.invalid("integrator.type", reason))?;
@@ -827,6 +881,7 @@ impl Builder<'_> {
                     cos_outer: outer.to_radians().cos(),
                 }
             }
+            LightSection::PointGrid { .. } => unreachable!("the caller expands grids into many lights"),
             LightSection::Directional { direction, irradiance } => {
                 self.finite(key, direction)?;
                 let d = Vec3::from(*direction).normalize_or_zero();

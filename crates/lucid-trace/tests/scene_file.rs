@@ -257,3 +257,27 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
     let err = parse_scene(&text, Path::new("m.toml")).unwrap_err().to_string();
     assert!(err.contains("m.toml") && err.contains("integrator.type") && err.contains("media"), "{err}");
 }
+
+#[test]
+fn point_light_grids_expand_to_many_lights_and_bad_ones_are_refused() {
+    let grid = |extra: &str| {
+        scene(&format!(
+            "[[lights]]\ntype = \"point_grid\"\ncorner = [-1, 2, -1]\nedge_u = [2, 0, 0]\nedge_v = [0, 0, 2]\nintensity = [0.1, 0.1, 0.1]\n{extra}"
+        ))
+    };
+    let loaded = parse_scene(&grid("count = [8, 4]\njitter = 0.5\ntint = 0.2\n"), Path::new("g.toml")).unwrap();
+    assert_eq!(loaded.scene.lights.len(), 32);
+    assert!(loaded.scene.lights.iter().all(|l| matches!(l, lucid_trace::light::Light::Point { .. })));
+    for (extra, key) in [
+        ("count = [0, 4]\n", "lights[0].count"),
+        ("count = [2000, 2000]\n", "lights[0].count"),
+        ("count = [2, 2]\njitter = 1.5\n", "lights[0].jitter"),
+        ("count = [2, 2]\ntint = -0.1\n", "lights[0].tint"),
+    ] {
+        let err = parse_scene(&grid(extra), Path::new("g.toml")).unwrap_err().to_string();
+        assert!(err.contains("g.toml") && err.contains(key), "{extra}: {err}");
+    }
+    // The built-in many-lights scene: 4096 of them.
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes/many-lights.toml");
+    assert_eq!(lucid_trace::load_scene(&file).unwrap().scene.lights.len(), 4096);
+}
