@@ -38,6 +38,14 @@ impl RenderCamera {
             RenderCamera::ThinLens(c) => c.generate_ray(px, py, lens),
         }
     }
+
+    /// A ray through pixel `(i, j)`: a sub-pixel jitter, then a lens point, from `rng`.
+    #[inline]
+    pub(crate) fn sample_ray(&self, i: usize, j: usize, rng: &mut Rng) -> lucid_scene::Ray {
+        let jitter = rng.uniform2();
+        let lens = rng.uniform2();
+        self.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens)
+    }
 }
 
 /// The light-transport algorithm of a render.
@@ -165,44 +173,50 @@ fn render_bidirectional(
     let done = AtomicUsize::new(0);
     let film = SplatFilm::new(w, h);
     let sampler = Bidirectional::new(scene, CameraImportance::new(camera), &settings.path, strategies);
-    let rows: Vec<(Vec<PixelSum>, u64)> = (0..h)
+    let rows: Vec<Vec<PixelSum>> = (0..h)
         .into_par_iter()
         .map_init(Subpaths::default, |paths, j| {
-            let mut rays = 0u64;
             let pixels = (0..w)
                 .map(|i| {
-                    let pixel = pixel_samples(camera, settings, (i, j, w), forward, |ray, rng| {
+                    pixel_samples(camera, settings, (i, j, w), forward, |ray, rng| {
                         sampler.sample(ray, rng, &film, paths)
-                    });
-                    rays += pixel.rays;
-                    pixel
+                    })
                 })
                 .collect();
             progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-            (pixels, rays)
+            pixels
         })
         .collect();
-    debug_assert_eq!(film.height(), h);
+    let rays = rows.iter().flatten().map(|p| p.rays).sum();
+    // With hidden emitters, light splatted to a pixel whose camera rays all missed is dropped
+    // by `finish` with the rest of its transparent background.
+    let pixels = rows.iter().enumerate().flat_map(|(j, row)| {
+        let film = &film;
+        row.iter().enumerate().map(move |(i, pixel)| {
+            PixelSum { radiance: pixel.radiance + film.get(i, j), ..*pixel }.finish(spp, settings.path.hide_emitters)
+        })
+    });
+    output_from_pixels(w, h, pixels, (w * h) as u64 * spp as u64, rays)
+}
+
+/// A render's images from its finished pixels in row order (colour, depth, normal, albedo).
+pub(crate) fn output_from_pixels(
+    w: usize,
+    h: usize,
+    pixels: impl Iterator<Item = [[f32; 4]; 4]>,
+    paths: u64,
+    rays: u64,
+) -> RenderOutput {
+    // Sized up front: collected from an iterator they grew by reallocation, each growth
+    // faulting in fresh pages.
     let mut planes = [(); 4].map(|_| Vec::with_capacity(w * h));
-    for (j, row) in rows.iter().enumerate() {
-        for (i, pixel) in row.0.iter().enumerate() {
-            // With hidden emitters, light splatted to a pixel whose camera rays all missed is
-            // dropped by `finish` with the rest of its transparent background.
-            let pixel = PixelSum { radiance: pixel.radiance + film.get(i, j), ..*pixel };
-            for (plane, value) in planes.iter_mut().zip(pixel.finish(spp, settings.path.hide_emitters)) {
-                plane.push(value);
-            }
+    for pixel in pixels {
+        for (plane, value) in planes.iter_mut().zip(pixel) {
+            plane.push(value);
         }
     }
     let [colour, depth, normal, albedo] = planes.map(|p| Image::from_pixels(w, h, p));
-    RenderOutput {
-        colour,
-        depth,
-        normal,
-        albedo,
-        paths: (w * h) as u64 * spp as u64,
-        rays: rows.iter().map(|r| r.1).sum(),
-    }
+    RenderOutput { colour, depth, normal, albedo, paths, rays }
 }
 
 /// Path tracing (in packets where the scene allows).
@@ -240,23 +254,8 @@ fn render_paths(
             row
         })
         .collect();
-    let plane = |c: usize| {
-        // Sized up front: collected from the rows' iterator it grew by reallocation, each
-        // growth faulting in fresh pages.
-        let mut pixels = Vec::with_capacity(w * h);
-        for row in &rows {
-            pixels.extend(row.0.iter().map(|p| p[c]));
-        }
-        Image::from_pixels(w, h, pixels)
-    };
-    RenderOutput {
-        colour: plane(0),
-        depth: plane(1),
-        normal: plane(2),
-        albedo: plane(3),
-        paths: (w * h) as u64 * spp as u64,
-        rays: rows.iter().map(|r| r.1).sum(),
-    }
+    let rays = rows.iter().map(|r| r.1).sum();
+    output_from_pixels(w, h, rows.iter().flat_map(|r| r.0.iter().copied()), (w * h) as u64 * spp as u64, rays)
 }
 
 /// Pixel `(i, j)` of an image `width` wide, its samples traced one by one by `trace` from
@@ -271,9 +270,7 @@ fn pixel_samples(
     let mut pixel = PixelSum::default();
     let mut rng = Rng::new(settings.seed, pixel_index(i, j, width));
     for _ in 0..settings.spp.max(1) {
-        let jitter = rng.uniform2();
-        let lens = rng.uniform2();
-        let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+        let ray = camera.sample_ray(i, j, &mut rng);
         pixel.add(&ray, &trace(ray, &mut rng), forward);
     }
     pixel
@@ -317,9 +314,7 @@ fn render_row_in_packets(
                 let (i, s) = (first + k / spp, k % spp);
                 let pixel = pixel_index(i, j, width);
                 let mut rng = Rng::new(settings.seed ^ mix(pixel * spp as u64 + s as u64), pixel);
-                let jitter = rng.uniform2();
-                let lens = rng.uniform2();
-                camera_rays[k] = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                camera_rays[k] = camera.sample_ray(i, j, &mut rng);
                 (camera_rays[k], rng)
             },
             &mut samples[..n],

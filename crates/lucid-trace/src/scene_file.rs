@@ -559,30 +559,8 @@ impl Builder<'_> {
         for (k, l) in file.lights.iter().enumerate() {
             let key = format!("lights[{k}]");
             match l {
-                LightSection::PointGrid { corner, edge_u, edge_v, count, intensity, jitter, tint, seed } => {
-                    self.finite(&key, &[*corner, *edge_u, *edge_v].concat())?;
-                    let lights = count[0] as u64 * count[1] as u64;
-                    if lights == 0 || lights > MAX_GRID_LIGHTS {
-                        return Err(
-                            self.invalid(format!("{key}.count"), format!("must make 1..={MAX_GRID_LIGHTS} lights"))
-                        );
-                    }
-                    for (name, v) in [("jitter", jitter), ("tint", tint)] {
-                        if !(0.0..=1.0).contains(v) {
-                            return Err(self.invalid(format!("{key}.{name}"), "must be in [0, 1]"));
-                        }
-                    }
-                    let grid = PointLightGrid {
-                        corner: Vec3::from(*corner),
-                        edge_u: Vec3::from(*edge_u),
-                        edge_v: Vec3::from(*edge_v),
-                        count: *count,
-                        intensity: self.colour(&format!("{key}.intensity"), *intensity)?,
-                        jitter: *jitter,
-                        tint: *tint,
-                        seed: *seed,
-                    };
-                    for light in grid.lights() {
+                LightSection::PointGrid { .. } => {
+                    for light in self.point_grid(&key, l)?.lights() {
                         builder.light(light);
                     }
                 }
@@ -849,6 +827,32 @@ impl Builder<'_> {
         };
         builder.mesh_with_medium(&mesh.transformed(&m), material, emission, interior);
         Ok(())
+    }
+
+    fn point_grid(&self, key: &str, l: &LightSection) -> Result<PointLightGrid, SceneFileError> {
+        let LightSection::PointGrid { corner, edge_u, edge_v, count, intensity, jitter, tint, seed } = l else {
+            unreachable!("called for point grids only")
+        };
+        self.finite(key, &[*corner, *edge_u, *edge_v].concat())?;
+        let lights = count[0] as u64 * count[1] as u64;
+        if lights == 0 || lights > MAX_GRID_LIGHTS {
+            return Err(self.invalid(format!("{key}.count"), format!("must make 1..={MAX_GRID_LIGHTS} lights")));
+        }
+        for (name, v) in [("jitter", jitter), ("tint", tint)] {
+            if !(0.0..=1.0).contains(v) {
+                return Err(self.invalid(format!("{key}.{name}"), "must be in [0, 1]"));
+            }
+        }
+        Ok(PointLightGrid {
+            corner: Vec3::from(*corner),
+            edge_u: Vec3::from(*edge_u),
+            edge_v: Vec3::from(*edge_v),
+            count: *count,
+            intensity: self.colour(&format!("{key}.intensity"), *intensity)?,
+            jitter: *jitter,
+            tint: *tint,
+            seed: *seed,
+        })
     }
 
     fn light(&self, key: &str, l: &LightSection) -> Result<Light, SceneFileError> {

@@ -21,6 +21,13 @@ pub(crate) struct SceneSphere {
 }
 
 impl SceneSphere {
+    /// The bounding sphere of `scene`'s geometry (the unit origin-centred one when empty).
+    pub(crate) fn around(scene: &crate::scene::Scene) -> Self {
+        let bounds = scene.bvh.bounds();
+        let centre = if bounds.min.x.is_finite() { bounds.centre() } else { Vec3::ZERO };
+        Self { centre, radius: scene.radius.max(1e-3) }
+    }
+
     /// Density per area of the disk that distant lights emit from.
     pub(crate) fn disk_pdf(&self) -> f32 {
         1.0 / (PI * self.radius * self.radius)
@@ -41,6 +48,23 @@ pub(crate) struct EmittedRay {
     pub(crate) pdf_pos: f32,
     /// Density of the direction per solid angle (1 for directional lights).
     pub(crate) pdf_dir: f32,
+}
+
+impl EmittedRay {
+    /// Its throughput as the start of a light path: Le |cos| / (p_pick p_pos p_dir), the cosine
+    /// at an area light's surface (1 for the others).
+    pub(crate) fn throughput(&self, pick_pdf: f32) -> Vec3 {
+        let cos = if self.normal == Vec3::ZERO { 1.0 } else { self.normal.dot(self.direction).abs() };
+        self.le * cos / (pick_pdf * self.pdf_pos * self.pdf_dir)
+    }
+
+    /// The ray, started just off an area light's surface.
+    pub(crate) fn ray(&self) -> lucid_scene::Ray {
+        lucid_scene::Ray {
+            origin: crate::integrator::spawn_origin(self.origin, self.normal, self.direction),
+            direction: self.direction,
+        }
+    }
 }
 
 /// A point on a light seen from a scene point: the light sample and the point's normal
@@ -264,8 +288,7 @@ mod tests {
             let mut sum = 0.0f64;
             for _ in 0..n {
                 if let Some(r) = sample_emission(&light, sphere, rng.uniform2(), rng.uniform2()) {
-                    let cos = if r.normal == Vec3::ZERO { 1.0 } else { r.normal.dot(r.direction).abs() };
-                    sum += (r.le.x * cos / (r.pdf_pos * r.pdf_dir)) as f64;
+                    sum += r.throughput(1.0).x as f64;
                 }
             }
             let power = light.power(sphere.radius).x as f64;

@@ -61,10 +61,6 @@ impl SplatFilm {
     pub(crate) fn get(&self, x: usize, y: usize) -> Vec3 {
         self.sums[y * self.width + x].get()
     }
-
-    pub(crate) fn height(&self) -> usize {
-        self.height
-    }
 }
 
 #[cfg(test)]

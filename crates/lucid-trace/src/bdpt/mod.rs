@@ -27,7 +27,7 @@ use crate::integrator::{
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use emission::{SceneSphere, sample_emission, sample_point_on};
-use vertex::{Context, Transport, Vertex, VertexKind, distant_light_density, shading_correction};
+use vertex::{Context, Transport, Vertex, VertexKind, distant_light_density, importance_factor};
 
 /// Which strategies a bidirectional sample uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,12 +56,10 @@ pub(crate) struct Bidirectional<'a> {
 
 impl<'a> Bidirectional<'a> {
     pub(crate) fn new(scene: &'a Scene, camera: CameraImportance, path: &PathTracer, strategies: Strategies) -> Self {
-        let bounds = scene.bvh.bounds();
-        let centre = if bounds.min.x.is_finite() { bounds.centre() } else { Vec3::ZERO };
         let ctx = Context {
             scene,
             camera,
-            sphere: SceneSphere { centre, radius: scene.radius.max(1e-3) },
+            sphere: SceneSphere::around(scene),
             light_pick: light_selection_probability(scene),
         };
         Self { ctx, max_depth: path.max_depth, rr_depth: path.rr_depth, hide_emitters: path.hide_emitters, strategies }
@@ -112,11 +110,17 @@ impl<'a> Bidirectional<'a> {
         let Some(e) = sample_emission(&scene.lights[pick], self.ctx.sphere, rng.uniform2(), rng.uniform2()) else {
             return;
         };
-        let cos = if e.normal == Vec3::ZERO { 1.0 } else { e.normal.dot(e.direction).abs() };
         path.push(Vertex::light(pick as u32, e.origin, e.normal, e.le, e.pdf_pos * self.ctx.light_pick));
-        let beta = e.le * cos / (self.ctx.light_pick * e.pdf_pos * e.pdf_dir);
-        let ray = Ray { origin: spawn_origin(e.origin, e.normal, e.direction), direction: e.direction };
-        self.random_walk(ray, beta, e.pdf_dir, max_vertices, Transport::Importance, rng, path, out);
+        self.random_walk(
+            e.ray(),
+            e.throughput(self.ctx.light_pick),
+            e.pdf_dir,
+            max_vertices,
+            Transport::Importance,
+            rng,
+            path,
+            out,
+        );
         if path[0].is_distant_light(&self.ctx) {
             // The walk converted the first hit's density from the disk's solid angle as if
             // from a point; a distant light's is the disk's area density projected.
@@ -200,8 +204,7 @@ impl<'a> Bidirectional<'a> {
                 pdf_fwd = 0.0;
             }
             if mode == Transport::Importance {
-                beta *=
-                    shading_correction(frame.n, hit.geometric_normal, wo, wi, mode) * bsdf.adjoint_scale(wo_local, &s);
+                beta *= importance_factor(&bsdf, frame, hit.geometric_normal, wo, wi, &s);
             }
             ray = spawn(&hit, wi);
             let n = path.len();

@@ -206,6 +206,20 @@ pub(crate) fn distant_light_density(ctx: &Context, towards: Vec3) -> f32 {
     }
 }
 
+/// The factor that turns a BSDF sample's radiance weight into its importance weight on a
+/// light path at a surface with shading frame `frame` and geometric normal `ng`, from `wo`
+/// (towards the light's side) to `wi`: refraction's η² and the shading-normal correction.
+pub(crate) fn importance_factor(
+    bsdf: &SurfaceBsdf,
+    frame: Frame,
+    ng: Vec3,
+    wo: Vec3,
+    wi: Vec3,
+    sample: &crate::bsdf::BsdfSample,
+) -> f32 {
+    bsdf.adjoint_scale(frame.to_local(wo), sample) * shading_correction(frame.n, ng, wo, wi, Transport::Importance)
+}
+
 /// Veach's correction for shading normals under adjoint transport (1 for radiance):
 /// |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
 pub(crate) fn shading_correction(ns: Vec3, ng: Vec3, wo: Vec3, wi: Vec3, mode: Transport) -> f32 {

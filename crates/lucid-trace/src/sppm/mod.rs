@@ -21,17 +21,16 @@ use std::f32::consts::PI;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::Vec3;
-use lucid_image::Image;
 use lucid_scene::Ray;
 use rayon::prelude::*;
 
 use crate::bdpt::FixedRgb;
 use crate::bdpt::emission::{SceneSphere, sample_emission};
-use crate::bdpt::vertex::{Transport, shading_correction};
+use crate::bdpt::vertex::importance_factor;
 use crate::bsdf::Bsdf;
-use crate::integrator::{Frame, light_selection_probability, pick_light_index, spawn, spawn_origin};
+use crate::integrator::{Frame, light_selection_probability, pick_light_index, spawn};
 use crate::material::SurfaceBsdf;
-use crate::render::{PixelSum, RenderCamera, RenderOutput, RenderSettings};
+use crate::render::{PixelSum, RenderCamera, RenderOutput, RenderSettings, output_from_pixels};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
 use grid::PointGrid;
@@ -113,9 +112,7 @@ pub(crate) fn render(
     let forward = camera.pinhole().forward();
     let passes = settings.spp.max(1);
     let photons = if params.photons > 0 { params.photons as usize } else { DEFAULT_PHOTONS_PER_PIXEL * w * h };
-    let bounds = scene.bvh.bounds();
-    let centre = if bounds.min.x.is_finite() { bounds.centre() } else { Vec3::ZERO };
-    let sphere = SceneSphere { centre, radius: scene.radius.max(1e-3) };
+    let sphere = SceneSphere::around(scene);
     // 0: each slot takes its radius from its first visible point's pixel footprint.
     let radius = params.radius;
     let mut stats = vec![SlotStats { photons: 0.0, radius, tau: Vec3::ZERO }; w * h * SLOTS];
@@ -129,9 +126,7 @@ pub(crate) fn render(
             .map(|p| {
                 let (i, j) = (p % w, p / w);
                 let mut rng = Rng::new(pass_seed, p as u64);
-                let jitter = rng.uniform2();
-                let lens = rng.uniform2();
-                let ray = camera.ray(i as f32 + jitter.x, j as f32 + jitter.y, lens);
+                let ray = camera.sample_ray(i, j, &mut rng);
                 (ray, camera_path(scene, settings, ray, p as u32, 1.0 / k.fx, &mut rng))
             })
             .collect();
@@ -176,35 +171,30 @@ pub(crate) fn render(
             let m = counts[v].load(Ordering::Relaxed) as f32;
             let s = &mut stats[vp.slot as usize];
             let phi = vp.beta * flux[v].get();
+            // A point no photon reached has no flux either: nothing changes.
             if m > 0.0 {
                 let n_new = s.photons + params.alpha * m;
                 let r_new = s.radius * (n_new / (s.photons + m)).sqrt();
                 s.tau = (s.tau + phi) * (r_new * r_new) / (s.radius * s.radius);
                 s.photons = n_new;
                 s.radius = r_new;
-            } else {
-                s.tau += phi;
             }
         }
         // Progress in rows, as the other renderers report it.
         progress((pass + 1) as usize * h / passes as usize);
     }
     let emitted = (passes as f64 * photons as f64) as f32;
-    let mut planes = [(); 4].map(|_| Vec::with_capacity(w * h));
-    for (p, pixel) in pixels.iter().enumerate() {
+    let rays = photon_rays + pixels.iter().map(|p| p.rays).sum::<u64>();
+    let finished = pixels.iter().zip(stats.chunks(SLOTS)).map(|(pixel, slots)| {
         let mut pixel = *pixel;
         // Slots no visible point ever used have no radius and no flux.
-        for s in stats[p * SLOTS..(p + 1) * SLOTS].iter().filter(|s| s.radius > 0.0) {
+        for s in slots.iter().filter(|s| s.radius > 0.0) {
             // τ / (N_e π R²) per pass, times the passes `finish` divides by.
             pixel.radiance += passes as f32 * s.tau / (emitted * PI * s.radius * s.radius);
         }
-        for (plane, value) in planes.iter_mut().zip(pixel.finish(passes, settings.path.hide_emitters)) {
-            plane.push(value);
-        }
-    }
-    let [colour, depth, normal, albedo] = planes.map(|p| Image::from_pixels(w, h, p));
-    let rays = photon_rays + pixels.iter().map(|p| p.rays).sum::<u64>();
-    RenderOutput { colour, depth, normal, albedo, paths: (w * h) as u64 * passes as u64, rays }
+        pixel.finish(passes, settings.path.hide_emitters)
+    });
+    output_from_pixels(w, h, finished, (w * h) as u64 * passes as u64, rays)
 }
 
 /// A camera path to its visible points: emitters seen directly or through specular bounces
@@ -331,9 +321,8 @@ fn trace_photon(
     let pick_pdf = light_selection_probability(scene);
     let pick = pick_light_index(scene, rng);
     let Some(e) = sample_emission(&scene.lights[pick], sphere, rng.uniform2(), rng.uniform2()) else { return 0 };
-    let cos = if e.normal == Vec3::ZERO { 1.0 } else { e.normal.dot(e.direction).abs() };
-    let mut beta = e.le * cos / (pick_pdf * e.pdf_pos * e.pdf_dir);
-    let mut ray = Ray { origin: spawn_origin(e.origin, e.normal, e.direction), direction: e.direction };
+    let mut beta = e.throughput(pick_pdf);
+    let mut ray = e.ray();
     let mut rays = 0;
     // The camera path adds at least one segment to the photon's.
     for bounce in 0..settings.path.max_depth.saturating_sub(1) {
@@ -356,9 +345,7 @@ fn trace_photon(
         let scattered = beta
             * s.f
             * s.wi.z.abs()
-            * (bsdf.adjoint_scale(wo, &s)
-                * shading_correction(frame.n, hit.geometric_normal, towards_light, wi, Transport::Importance)
-                / s.pdf);
+            * (importance_factor(&bsdf, frame, hit.geometric_normal, towards_light, wi, &s) / s.pdf);
         // Russian roulette by how much of its power the bounce kept.
         let q = (scattered.max_element() / beta.max_element()).min(1.0);
         if rng.uniform() >= q {

@@ -94,17 +94,10 @@ fn progressive(
     let mut spp = 1u32;
     let mut pass = 0u64;
     while elapsed < seconds {
-        let settings = RenderSettings {
-            spp,
-            seed: lucid_trace::sampling::mix(seed ^ (pass + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)),
-            integrator,
-            ..loaded.settings
-        };
-        let started = Instant::now();
-        let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {});
-        let took = started.elapsed().as_secs_f64();
+        let pass_seed = lucid_trace::sampling::mix(seed ^ (pass + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let (image, took) = timed_render(loaded, integrator, spp, pass_seed);
         elapsed += took;
-        acc.add(&out.colour, spp);
+        acc.add(&image, spp);
         if let Some(r) = reference {
             curve.push((elapsed, relative_mse(&acc.image(), r)));
         }
@@ -132,10 +125,7 @@ fn consistent(
     let mut curve = Vec::new();
     let mut spp = 1u32;
     loop {
-        let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
-        let started = Instant::now();
-        let image = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour;
-        let took = started.elapsed().as_secs_f64();
+        let (image, took) = timed_render(loaded, integrator, spp, seed);
         if let Some(r) = reference {
             curve.push((took, relative_mse(&image, r)));
         }
@@ -144,6 +134,14 @@ fn consistent(
         }
         spp *= 2;
     }
+}
+
+/// One render's colour and its wall time in seconds.
+fn timed_render(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u64) -> (Image, f64) {
+    let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
+    let started = Instant::now();
+    let image = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour;
+    (image, started.elapsed().as_secs_f64())
 }
 
 fn dimensions(camera: &RenderCamera) -> (usize, usize) {
