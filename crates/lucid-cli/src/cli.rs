@@ -598,7 +598,7 @@ pub struct GenArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Light-transport algorithm of the renders (default: the scene's integrator.type):
-    /// path, bdpt or light-tracing.
+    /// path, bdpt, light-tracing, sppm, vpl or lightcuts, with their default parameters.
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<lucid_trace::Integrator>,
     /// Distance of the orbit cameras from the origin.
@@ -720,6 +720,10 @@ pub enum BenchTarget {
     /// and caustic): relative MSE against a long reference render, the time to reach the
     /// path tracer's error, and how the error falls with time.
     Integrators,
+    /// Lightcuts against brute-force summation over the same point lights and VPLs on
+    /// `--scenes` (default many-lights) at `--width`, 4 spp: render time, shadow rays and
+    /// per-pixel relative difference.
+    Lightcuts,
     /// Every benchmark above in turn, with one JSON file and one HTML report (in `--report`,
     /// default `out/bench`).
     All,
@@ -755,7 +759,7 @@ pub struct BenchArgs {
     /// nerf, splat: the built-in sets to benchmark on, each rendered once into out/bench/SCENE
     /// (trophy at 384 spp, toys at 512, their noise ceiling measured; object: the older 32-spp
     /// set); default trophy,toys. integrators: built-in scenes or scene files; default
-    /// cornell,caustic.
+    /// cornell,caustic. lightcuts: default many-lights.
     #[arg(long, value_delimiter = ',')]
     pub scenes: Option<Vec<String>>,
     /// integrators: which (default all of them).
@@ -764,7 +768,7 @@ pub struct BenchArgs {
     /// integrators: render time of each integrator on each scene, in seconds.
     #[arg(long, default_value_t = 20.0)]
     pub seconds: f64,
-    /// integrators: image width (the height keeps the scene's aspect).
+    /// integrators, lightcuts: image width (the height keeps the scene's aspect).
     #[arg(long, default_value_t = 128)]
     pub width: u32,
     /// integrators: render time of a reference that is not cached yet, in multiples of
@@ -800,8 +804,8 @@ pub struct RenderArgs {
     /// Samples per pixel (overrides the scene's integrator.spp).
     #[arg(long)]
     pub spp: Option<u32>,
-    /// Light-transport algorithm (overrides the scene's integrator.type): path, bdpt or
-    /// light-tracing.
+    /// Light-transport algorithm (overrides the scene's integrator.type): path, bdpt,
+    /// light-tracing, sppm, vpl or lightcuts, with their default parameters.
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<lucid_trace::Integrator>,
     /// Image width (overrides the camera's; the horizontal field of view is kept).

@@ -10,6 +10,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod light_grid;
+pub mod manylight;
 pub mod material;
 pub mod medium;
 pub mod packet;
@@ -17,7 +18,9 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod scene_file;
+mod scene_integrator;
 pub mod sppm;
+mod visible;
 
 pub use integrator::{LightStrategy, PathTracer};
 pub use material::{Material, Texture};

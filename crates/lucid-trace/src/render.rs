@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use crate::bdpt::{Bidirectional, CameraImportance, SplatFilm, Strategies, Subpaths};
 use crate::integrator::{PathSample, PathTracer};
+use crate::manylight::{Gather, InstantRadiosity, Lightcuts};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
 use crate::sppm::PhotonMapping;
@@ -62,15 +63,22 @@ pub enum Integrator {
     /// Stochastic progressive photon mapping: `spp` passes of one camera path per pixel and
     /// a batch of photons, radii shrinking with α.
     Sppm(PhotonMapping),
+    /// Instant radiosity: each pass's virtual point lights (clamped) summed at every visible
+    /// point, direct light sampled.
+    Vpl(InstantRadiosity),
+    /// Lightcuts over the point and spot lights and the pass's diffuse virtual point lights.
+    Lightcuts(Lightcuts),
 }
 
 impl Integrator {
     /// Every integrator with the name the scene file and `--integrator` use.
-    pub const ALL: [(Integrator, &'static str); 4] = [
+    pub const ALL: [(Integrator, &'static str); 6] = [
         (Integrator::Path, "path"),
         (Integrator::Bdpt, "bdpt"),
         (Integrator::LightTracing, "light-tracing"),
         (Integrator::Sppm(PhotonMapping::DEFAULT), "sppm"),
+        (Integrator::Vpl(InstantRadiosity::DEFAULT), "vpl"),
+        (Integrator::Lightcuts(Lightcuts::DEFAULT), "lightcuts"),
     ];
 
     /// The integrator called `name`.
@@ -95,10 +103,18 @@ impl Integrator {
     pub fn supports(self, scene: &Scene) -> Result<(), String> {
         match self {
             Integrator::Path => Ok(()),
-            Integrator::Bdpt | Integrator::LightTracing | Integrator::Sppm(_) if scene.has_media() => Err(format!(
-                "the {} integrator does not handle participating media or medium interfaces; use \"path\"",
-                self.name()
-            )),
+            Integrator::Bdpt
+            | Integrator::LightTracing
+            | Integrator::Sppm(_)
+            | Integrator::Vpl(_)
+            | Integrator::Lightcuts(_)
+                if scene.has_media() =>
+            {
+                Err(format!(
+                    "the {} integrator does not handle participating media or medium interfaces; use \"path\"",
+                    self.name()
+                ))
+            }
             _ => Ok(()),
         }
     }
@@ -154,6 +170,10 @@ pub fn render(
         Integrator::Bdpt => render_bidirectional(scene, camera, settings, Strategies::All, progress),
         Integrator::LightTracing => render_bidirectional(scene, camera, settings, Strategies::LightTracing, progress),
         Integrator::Sppm(params) => crate::sppm::render(scene, camera, settings, params, progress),
+        Integrator::Vpl(params) => crate::manylight::render(scene, camera, settings, Gather::Vpl(params), progress),
+        Integrator::Lightcuts(params) => {
+            crate::manylight::render(scene, camera, settings, Gather::Lightcuts(params), progress)
+        }
     }
 }
 

@@ -14,9 +14,12 @@
 //! focus_distance = 3.9
 //!
 //! [integrator]
-//! type = "path"                  # path | bdpt | light-tracing | sppm (all but path: no media)
+//! type = "path"                  # path | bdpt | light-tracing | sppm | vpl | lightcuts
+//!                                # (all but path: no media)
 //! # sppm only: photons = 65536 (per pass; default four per pixel), radius = 0.02 (initial,
 //! # world units; default two pixel widths at each visible point), alpha = 0.6667
+//! # vpl and lightcuts: light_paths = 128 (per pass; lightcuts 256, 0 for direct light only),
+//! # clamp = 0.01 (VPL distance floor, fraction of the scene's radius); lightcuts: error = 0.02
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5
@@ -76,13 +79,13 @@ use crate::bsdf::LafortuneTerm;
 use crate::environment::EnvironmentMap;
 use crate::geometry::mesh_file::load_mesh;
 use crate::geometry::procedural::{self, TriangleMesh};
-use crate::integrator::PathTracer;
 use crate::light::Light;
 use crate::light_grid::{MAX_GRID_LIGHTS, PointLightGrid};
 use crate::material::{ImageTexture, Material, Texture, Wrap};
 use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
-use crate::render::{Integrator, RenderCamera, RenderSettings};
+use crate::render::{RenderCamera, RenderSettings};
 use crate::scene::{Emission, Scene, SceneBuilder};
+use crate::scene_integrator::IntegratorSection;
 
 /// Why a scene file could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -159,39 +162,6 @@ struct CameraSection {
 
 fn default_up() -> [f32; 3] {
     [0.0, 0.0, 1.0]
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct IntegratorSection {
-    #[serde(rename = "type")]
-    kind: String,
-    spp: u32,
-    max_depth: u32,
-    rr_depth: u32,
-    hide_emitters: bool,
-    seed: u64,
-    /// sppm: photons per pass, initial radius, α.
-    photons: Option<u32>,
-    radius: Option<f32>,
-    alpha: Option<f32>,
-}
-
-impl Default for IntegratorSection {
-    fn default() -> Self {
-        let p = PathTracer::default();
-        Self {
-            kind: Integrator::Path.name().into(),
-            spp: 16,
-            max_depth: p.max_depth,
-            rr_depth: p.rr_depth,
-            hide_emitters: p.hide_emitters,
-            seed: 0,
-            photons: None,
-            radius: None,
-            alpha: None,
-        }
-    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -492,46 +462,7 @@ impl Builder<'_> {
 
     fn build(&self, file: SceneFile) -> Result<LoadedScene, SceneFileError> {
         let camera = self.camera(&file.camera)?;
-        let i = &file.integrator;
-        if i.spp == 0 || i.max_depth == 0 {
-            return Err(self.invalid("integrator", "spp and max_depth must be at least 1"));
-        }
-        let mut integrator = Integrator::from_name(&i.kind).ok_or_else(|| {
-            self.invalid("integrator.type", format!("unknown integrator {:?} (one of {})", i.kind, Integrator::names()))
-        })?;
-        if let Integrator::Sppm(params) = &mut integrator {
-            if let Some(photons) = i.photons {
-                if photons == 0 || photons > 100_000_000 {
-                    return Err(self.invalid("integrator.photons", "must be in 1..=100000000"));
-                }
-                params.photons = photons;
-            }
-            if let Some(radius) = i.radius {
-                if !(radius.is_finite() && radius > 0.0) {
-                    return Err(self.invalid("integrator.radius", "must be a positive number"));
-                }
-                params.radius = radius;
-            }
-            if let Some(alpha) = i.alpha {
-                if !(alpha > 0.0 && alpha < 1.0) {
-                    return Err(self.invalid("integrator.alpha", "must be in (0, 1)"));
-                }
-                params.alpha = alpha;
-            }
-        } else if i.photons.is_some() || i.radius.is_some() || i.alpha.is_some() {
-            return Err(self.invalid("integrator", "photons, radius and alpha belong to type = \"sppm\""));
-        }
-        let settings = RenderSettings {
-            spp: i.spp,
-            seed: i.seed,
-            path: PathTracer {
-                max_depth: i.max_depth,
-                rr_depth: i.rr_depth,
-                hide_emitters: i.hide_emitters,
-                ..PathTracer::default()
-            },
-            integrator,
-        };
+        let settings = file.integrator.settings(|key, reason| self.invalid(key, reason))?;
         let mut builder = SceneBuilder::new();
         let mut media = BTreeMap::new();
         for (name, m) in &file.media {
@@ -568,7 +499,7 @@ impl Builder<'_> {
             }
         }
         let scene = builder.build();
-        integrator.supports(&scene).map_err(|reason| self.invalid("integrator.type", reason))?;
+        settings.integrator.supports(&scene).map_err(|reason| self.invalid("integrator.type", reason))?;
         Ok(LoadedScene { scene, camera, settings })
     }
 

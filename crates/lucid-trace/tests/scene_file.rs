@@ -224,6 +224,8 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("bdpt", lucid_trace::Integrator::Bdpt),
         ("light-tracing", lucid_trace::Integrator::LightTracing),
         ("sppm", lucid_trace::Integrator::Sppm(lucid_trace::sppm::PhotonMapping::DEFAULT)),
+        ("vpl", lucid_trace::Integrator::Vpl(lucid_trace::manylight::InstantRadiosity::DEFAULT)),
+        ("lightcuts", lucid_trace::Integrator::Lightcuts(lucid_trace::manylight::Lightcuts::DEFAULT)),
     ] {
         let text = scene(&format!("[integrator]\ntype = \"{name}\"\n{light}"));
         assert_eq!(parse_scene(&text, Path::new("i.toml")).unwrap().settings.integrator, expected);
@@ -238,10 +240,24 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("integrator.alpha", format!("[integrator]\ntype = \"sppm\"\nalpha = 1.5\n{light}")),
         ("integrator.radius", format!("[integrator]\ntype = \"sppm\"\nradius = -1.0\n{light}")),
         ("integrator", format!("[integrator]\ntype = \"bdpt\"\nphotons = 10\n{light}")),
+        ("integrator.light_paths", format!("[integrator]\ntype = \"vpl\"\nlight_paths = 0\n{light}")),
+        ("integrator.clamp", format!("[integrator]\ntype = \"lightcuts\"\nclamp = nan\n{light}")),
+        ("integrator.error", format!("[integrator]\ntype = \"lightcuts\"\nerror = 1.0\n{light}")),
+        ("integrator", format!("[integrator]\ntype = \"vpl\"\nerror = 0.01\n{light}")),
+        ("integrator", format!("[integrator]\ntype = \"sppm\"\nclamp = 0.1\n{light}")),
     ] {
         let err = parse_scene(&scene(&text), Path::new("s.toml")).unwrap_err().to_string();
         assert!(err.contains(key), "{err}");
     }
+    // Many-light settings: light paths and clamp for both, the error bound for lightcuts (whose
+    // light paths may be 0: the scene's point lights alone).
+    let text =
+        scene(&format!("[integrator]\ntype = \"lightcuts\"\nlight_paths = 0\nclamp = 0.05\nerror = 0.0\n{light}"));
+    let lucid_trace::Integrator::Lightcuts(c) = parse_scene(&text, Path::new("c.toml")).unwrap().settings.integrator
+    else {
+        panic!("lightcuts expected")
+    };
+    assert_eq!((c.vpls.light_paths, c.vpls.clamp, c.error), (0, 0.05, 0.0));
     // Without the key: path tracing.
     let default = parse_scene(&scene(light), Path::new("i.toml")).unwrap();
     assert_eq!(default.settings.integrator, lucid_trace::Integrator::Path);

@@ -83,10 +83,8 @@ pub fn override_integrator(
         integrator
             .supports(&loaded.scene)
             .map_err(|e| anyhow::anyhow!("{scene}: --integrator {}: {e}", integrator.name()))?;
-        // A scene that already photon-maps keeps its own photon settings.
-        if !(matches!(integrator, lucid_trace::Integrator::Sppm(_))
-            && matches!(loaded.settings.integrator, lucid_trace::Integrator::Sppm(_)))
-        {
+        // A scene that already uses this integrator keeps its own parameters (photons, VPLs).
+        if std::mem::discriminant(&integrator) != std::mem::discriminant(&loaded.settings.integrator) {
             loaded.settings.integrator = integrator;
         }
     }

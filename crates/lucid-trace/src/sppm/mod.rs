@@ -25,18 +25,13 @@ use lucid_scene::Ray;
 use rayon::prelude::*;
 
 use crate::bdpt::FixedRgb;
-use crate::bdpt::emission::{SceneSphere, sample_emission};
-use crate::bdpt::vertex::importance_factor;
+use crate::bdpt::emission::SceneSphere;
 use crate::bsdf::Bsdf;
-use crate::integrator::{Frame, light_selection_probability, pick_light_index, spawn};
-use crate::material::SurfaceBsdf;
 use crate::render::{PixelSum, RenderCamera, RenderOutput, RenderSettings, output_from_pixels};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
+use crate::visible::{CameraPass, LightChoice, SLOTS, camera_path, pass_seed, trace_light_path};
 use grid::PointGrid;
-
-/// Visible points kept per pixel.
-pub(crate) const SLOTS: usize = 3;
 
 /// Photons per pass per pixel by default, and the default initial radius in pixel widths at
 /// the visible point: chosen by `lucid bench integrators` on cornell, caustic and door at
@@ -70,33 +65,12 @@ impl Default for PhotonMapping {
     }
 }
 
-/// A non-specular surface a camera path reached in this pass.
-#[derive(Clone, Copy)]
-struct VisiblePoint {
-    /// `pixel · SLOTS + slot`.
-    slot: u32,
-    point: Vec3,
-    frame: Frame,
-    wo: Vec3,
-    bsdf: SurfaceBsdf,
-    beta: Vec3,
-    /// Width of a pixel at the point, along the path from the camera.
-    footprint: f32,
-}
-
 /// A slot's statistics across passes.
 #[derive(Clone, Copy)]
 struct SlotStats {
     photons: f32,
     radius: f32,
     tau: Vec3,
-}
-
-/// What one pass's camera path gives a pixel.
-#[derive(Default)]
-struct CameraPass {
-    sample: crate::integrator::PathSample,
-    points: Vec<VisiblePoint>,
 }
 
 /// Renders with SPPM: `settings.spp` passes.
@@ -113,13 +87,14 @@ pub(crate) fn render(
     let passes = settings.spp.max(1);
     let photons = if params.photons > 0 { params.photons as usize } else { DEFAULT_PHOTONS_PER_PIXEL * w * h };
     let sphere = SceneSphere::around(scene);
+    let lights = LightChoice::all(scene);
     // 0: each slot takes its radius from its first visible point's pixel footprint.
     let radius = params.radius;
     let mut stats = vec![SlotStats { photons: 0.0, radius, tau: Vec3::ZERO }; w * h * SLOTS];
     let mut pixels = vec![PixelSum::default(); w * h];
     let mut photon_rays = 0u64;
     for pass in 0..passes {
-        let pass_seed = mix(settings.seed ^ (pass as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let pass_seed = pass_seed(settings.seed, pass);
         // 1. Camera paths to their visible points.
         let camera_passes: Vec<(Ray, CameraPass)> = (0..w * h)
             .into_par_iter()
@@ -127,7 +102,7 @@ pub(crate) fn render(
                 let (i, j) = (p % w, p / w);
                 let mut rng = Rng::new(pass_seed, p as u64);
                 let ray = camera.sample_ray(i, j, &mut rng);
-                (ray, camera_path(scene, settings, ray, p as u32, 1.0 / k.fx, &mut rng))
+                (ray, camera_path(scene, settings, &lights, ray, p as u32, 1.0 / k.fx, &mut rng))
             })
             .collect();
         let mut points = Vec::new();
@@ -152,7 +127,12 @@ pub(crate) fn render(
             .into_par_iter()
             .map(|n| {
                 let mut rng = Rng::new(photon_seed, n as u64);
-                trace_photon(scene, settings, sphere, &mut rng, |at, wi, beta| {
+                trace_light_path(scene, settings, sphere, &mut rng, |vertex| {
+                    // Direct light is the camera side's.
+                    if vertex.bounce == 0 {
+                        return;
+                    }
+                    let (at, wi, beta) = (vertex.hit.point, vertex.towards_light, vertex.beta);
                     for &v in grid.candidates(at) {
                         let vp = &points[v as usize];
                         let r = spheres[v as usize].1;
@@ -195,164 +175,4 @@ pub(crate) fn render(
         pixel.finish(passes, settings.path.hide_emitters)
     });
     output_from_pixels(w, h, finished, (w * h) as u64 * passes as u64, rays)
-}
-
-/// A camera path to its visible points: emitters seen directly or through specular bounces
-/// and direct light at each visible point go to the sample's radiance.
-fn camera_path(
-    scene: &Scene,
-    settings: &RenderSettings,
-    camera_ray: Ray,
-    pixel: u32,
-    pixel_angle: f32,
-    rng: &mut Rng,
-) -> CameraPass {
-    let mut out = CameraPass::default();
-    let mut travelled = 0.0;
-    let hide = settings.path.hide_emitters;
-    let mut ray = camera_ray;
-    let mut beta = Vec3::ONE;
-    for segment in 1..=settings.path.max_depth {
-        let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
-        out.sample.rays += 1;
-        let Some(hit) = found else {
-            if let Some(env) = scene.environment
-                && !(segment == 1 && hide)
-                && let Some((radiance, _)) = scene.lights[env].environment(ray.direction)
-            {
-                out.sample.radiance += beta * radiance;
-            }
-            break;
-        };
-        travelled += hit.t;
-        let primitive = &scene.bvh.primitives()[hit.primitive as usize];
-        let material = &scene.materials[primitive.material as usize];
-        if segment == 1 {
-            out.sample.alpha = 1.0;
-            out.sample.distance = hit.t;
-            out.sample.normal = hit.shading_normal;
-            out.sample.albedo = material.albedo(hit.uv);
-        }
-        if let Some(l) = primitive.light
-            && !(segment == 1 && hide)
-        {
-            out.sample.radiance += beta * scene.lights[l as usize].emitted(hit.geometric_normal, -ray.direction);
-        }
-        let bsdf = material.bsdf(hit.uv);
-        let frame = Frame::new(hit.shading_normal, hit.tangent);
-        let wo = frame.to_local(-ray.direction);
-        if !bsdf.is_specular() {
-            if segment < settings.path.max_depth {
-                out.sample.radiance += beta * direct_light(scene, &hit, &bsdf, frame, wo, rng, &mut out.sample.rays);
-            }
-            if out.points.len() < SLOTS && segment < settings.path.max_depth {
-                out.points.push(VisiblePoint {
-                    slot: pixel * SLOTS as u32 + out.points.len() as u32,
-                    point: hit.point,
-                    frame,
-                    wo,
-                    bsdf,
-                    beta,
-                    footprint: (travelled * pixel_angle).max(1e-6),
-                });
-            }
-        }
-        if segment >= settings.path.max_depth {
-            break;
-        }
-        // Only specular lobes continue: the visible point stands for the rest.
-        let Some(s) = bsdf.sample(wo, rng.uniform2(), rng.uniform()) else { break };
-        if !s.specular || s.pdf <= 0.0 {
-            break;
-        }
-        beta *= s.f * s.wi.z.abs() / s.pdf;
-        if beta == Vec3::ZERO {
-            break;
-        }
-        ray = spawn(&hit, frame.to_world(s.wi).normalize());
-    }
-    out
-}
-
-/// One light sample's direct light at a surface point, through the non-specular BSDF.
-fn direct_light(
-    scene: &Scene,
-    hit: &crate::geometry::Intersection,
-    bsdf: &SurfaceBsdf,
-    frame: Frame,
-    wo: Vec3,
-    rng: &mut Rng,
-    rays: &mut u32,
-) -> Vec3 {
-    if scene.lights.is_empty() {
-        return Vec3::ZERO;
-    }
-    let pick = pick_light_index(scene, rng);
-    let Some(ls) = scene.lights[pick].sample(hit.point, rng.uniform2()) else { return Vec3::ZERO };
-    if ls.pdf <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let wi = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo, wi);
-    if f == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
-    *rays += 1;
-    let t_max = if ls.distance.is_finite() { ls.distance * (1.0 - 1e-3) } else { f32::INFINITY };
-    if scene.bvh.occluded(&spawn(hit, ls.wi), 0.0, t_max) {
-        return Vec3::ZERO;
-    }
-    f * wi.z.abs() * ls.li / (ls.pdf * light_selection_probability(scene))
-}
-
-/// Traces one photon, calling `deposit(point, direction towards where it came from, power)`
-/// at every non-specular surface after the first (direct light is the camera side's); returns
-/// the rays traced.
-fn trace_photon(
-    scene: &Scene,
-    settings: &RenderSettings,
-    sphere: SceneSphere,
-    rng: &mut Rng,
-    mut deposit: impl FnMut(Vec3, Vec3, Vec3),
-) -> u32 {
-    if scene.lights.is_empty() {
-        return 0;
-    }
-    let pick_pdf = light_selection_probability(scene);
-    let pick = pick_light_index(scene, rng);
-    let Some(e) = sample_emission(&scene.lights[pick], sphere, rng.uniform2(), rng.uniform2()) else { return 0 };
-    let mut beta = e.throughput(pick_pdf);
-    let mut ray = e.ray();
-    let mut rays = 0;
-    // The camera path adds at least one segment to the photon's.
-    for bounce in 0..settings.path.max_depth.saturating_sub(1) {
-        let found = scene.bvh.intersect(&ray, 0.0, f32::INFINITY);
-        rays += 1;
-        let Some(hit) = found else { break };
-        let primitive = &scene.bvh.primitives()[hit.primitive as usize];
-        let bsdf = scene.materials[primitive.material as usize].bsdf(hit.uv);
-        let towards_light = -ray.direction;
-        if bounce > 0 && !bsdf.is_specular() {
-            deposit(hit.point, towards_light, beta);
-        }
-        let frame = Frame::new(hit.shading_normal, hit.tangent);
-        let wo = frame.to_local(towards_light);
-        let Some(s) = bsdf.sample(wo, rng.uniform2(), rng.uniform()) else { break };
-        if s.pdf <= 0.0 || s.f == Vec3::ZERO {
-            break;
-        }
-        let wi = frame.to_world(s.wi).normalize();
-        let scattered = beta
-            * s.f
-            * s.wi.z.abs()
-            * (importance_factor(&bsdf, frame, hit.geometric_normal, towards_light, wi, &s) / s.pdf);
-        // Russian roulette by how much of its power the bounce kept.
-        let q = (scattered.max_element() / beta.max_element()).min(1.0);
-        if rng.uniform() >= q {
-            break;
-        }
-        beta = scattered / q;
-        ray = spawn(&hit, wi);
-    }
-    rays
 }

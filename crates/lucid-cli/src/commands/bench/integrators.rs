@@ -144,7 +144,7 @@ fn timed_render(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u6
     (image, started.elapsed().as_secs_f64())
 }
 
-fn dimensions(camera: &RenderCamera) -> (usize, usize) {
+pub fn dimensions(camera: &RenderCamera) -> (usize, usize) {
     let k = match camera {
         RenderCamera::Pinhole(c) => c.intrinsics,
         RenderCamera::ThinLens(c) => c.pinhole.intrinsics,
@@ -196,7 +196,7 @@ pub fn log_slope(curve: &[(f64, f64)]) -> f64 {
 }
 
 /// The scene at the benchmark's width, keeping its aspect and field of view.
-fn resized(mut loaded: LoadedScene, width: u32) -> LoadedScene {
+pub fn resized(mut loaded: LoadedScene, width: u32) -> LoadedScene {
     let pinhole = match loaded.camera {
         RenderCamera::Pinhole(c) => c,
         RenderCamera::ThinLens(c) => c.pinhole,

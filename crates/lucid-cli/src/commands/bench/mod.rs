@@ -2,6 +2,7 @@
 
 mod hdr;
 mod integrators;
+mod lightcuts;
 mod nerf;
 mod report;
 mod splat;
@@ -35,6 +36,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             BenchTarget::Trace => results.push(bench_trace(args.quick)?),
             BenchTarget::Hdr => results.push(hdr::run(args.quick, args.write_stack.as_deref())?),
             BenchTarget::Integrators => results.extend(integrators::run(&integrator_bench(&args))?),
+            BenchTarget::Lightcuts => results.extend(lightcuts::run(&lightcuts::LightcutsBench {
+                scenes: args.scenes.clone().unwrap_or_else(|| vec!["many-lights".into()]),
+                width: if args.quick { args.width.min(64) } else { args.width },
+                spp: if args.quick { 1 } else { 4 },
+            })?),
             BenchTarget::Nerf | BenchTarget::Splat => {
                 for dataset in BenchDataset::all(&args)? {
                     results.push(run_trainer(&args, target, dataset)?);
