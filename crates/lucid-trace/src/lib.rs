@@ -8,6 +8,7 @@ pub mod distribution;
 pub mod environment;
 pub mod geometry;
 pub mod integrator;
+pub mod irradiance_cache;
 pub mod light;
 pub mod light_grid;
 pub mod manylight;

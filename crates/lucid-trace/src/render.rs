@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use crate::bdpt::{Bidirectional, CameraImportance, SplatFilm, Strategies, Subpaths};
 use crate::integrator::{PathSample, PathTracer};
+use crate::irradiance_cache::IrradianceCaching;
 use crate::manylight::{Gather, InstantRadiosity, Lightcuts};
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
@@ -68,17 +69,20 @@ pub enum Integrator {
     Vpl(InstantRadiosity),
     /// Lightcuts over the point and spot lights and the pass's diffuse virtual point lights.
     Lightcuts(Lightcuts),
+    /// Irradiance caching for diffuse indirect light, path tracing for the rest.
+    IrradianceCache(IrradianceCaching),
 }
 
 impl Integrator {
     /// Every integrator with the name the scene file and `--integrator` use.
-    pub const ALL: [(Integrator, &'static str); 6] = [
+    pub const ALL: [(Integrator, &'static str); 7] = [
         (Integrator::Path, "path"),
         (Integrator::Bdpt, "bdpt"),
         (Integrator::LightTracing, "light-tracing"),
         (Integrator::Sppm(PhotonMapping::DEFAULT), "sppm"),
         (Integrator::Vpl(InstantRadiosity::DEFAULT), "vpl"),
         (Integrator::Lightcuts(Lightcuts::DEFAULT), "lightcuts"),
+        (Integrator::IrradianceCache(IrradianceCaching::DEFAULT), "irradiance-cache"),
     ];
 
     /// The integrator called `name`.
@@ -108,6 +112,7 @@ impl Integrator {
             | Integrator::Sppm(_)
             | Integrator::Vpl(_)
             | Integrator::Lightcuts(_)
+            | Integrator::IrradianceCache(_)
                 if scene.has_media() =>
             {
                 Err(format!(
@@ -173,6 +178,9 @@ pub fn render(
         Integrator::Vpl(params) => crate::manylight::render(scene, camera, settings, Gather::Vpl(params), progress),
         Integrator::Lightcuts(params) => {
             crate::manylight::render(scene, camera, settings, Gather::Lightcuts(params), progress)
+        }
+        Integrator::IrradianceCache(params) => {
+            crate::irradiance_cache::render(scene, camera, settings, params, progress)
         }
     }
 }

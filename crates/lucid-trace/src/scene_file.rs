@@ -15,11 +15,12 @@
 //!
 //! [integrator]
 //! type = "path"                  # path | bdpt | light-tracing | sppm | vpl | lightcuts
-//!                                # (all but path: no media)
+//!                                # | irradiance-cache (all but path: no media)
 //! # sppm only: photons = 65536 (per pass; default four per pixel), radius = 0.02 (initial,
 //! # world units; default two pixel widths at each visible point), alpha = 0.6667
 //! # vpl and lightcuts: light_paths = 128 (per pass; lightcuts 256, 0 for direct light only),
 //! # clamp = 0.01 (VPL distance floor, fraction of the scene's radius); lightcuts: error = 0.02
+//! # irradiance-cache: error = 0.2 (Ward's a; 0: no interpolation), gather = 1024 (rays per record)
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5

@@ -21,10 +21,12 @@ pub(crate) struct IntegratorSection {
     photons: Option<u32>,
     radius: Option<f32>,
     alpha: Option<f32>,
-    /// vpl and lightcuts: light paths per pass and the VPL clamp; lightcuts: error bound.
+    /// vpl and lightcuts: light paths per pass and the VPL clamp; lightcuts: error bound;
+    /// irradiance-cache: error threshold and gather rays per record.
     light_paths: Option<u32>,
     clamp: Option<f32>,
     error: Option<f32>,
+    gather: Option<u32>,
 }
 
 impl Default for IntegratorSection {
@@ -43,6 +45,7 @@ impl Default for IntegratorSection {
             light_paths: None,
             clamp: None,
             error: None,
+            gather: None,
         }
     }
 }
@@ -70,8 +73,11 @@ impl IntegratorSection {
         if vpl_keys && !matches!(integrator, Integrator::Vpl(_) | Integrator::Lightcuts(_)) {
             return Err(invalid("integrator", "light_paths and clamp belong to type = \"vpl\" or \"lightcuts\""));
         }
-        if self.error.is_some() && !matches!(integrator, Integrator::Lightcuts(_)) {
-            return Err(invalid("integrator", "error belongs to type = \"lightcuts\""));
+        if self.error.is_some() && !matches!(integrator, Integrator::Lightcuts(_) | Integrator::IrradianceCache(_)) {
+            return Err(invalid("integrator", "error belongs to type = \"lightcuts\" or \"irradiance-cache\""));
+        }
+        if self.gather.is_some() && !matches!(integrator, Integrator::IrradianceCache(_)) {
+            return Err(invalid("integrator", "gather belongs to type = \"irradiance-cache\""));
         }
         match &mut integrator {
             Integrator::Sppm(params) => {
@@ -104,6 +110,20 @@ impl IntegratorSection {
                         return Err(invalid("integrator.error", "must be in [0, 1) (0: sum every light)"));
                     }
                     params.error = error;
+                }
+            }
+            Integrator::IrradianceCache(params) => {
+                if let Some(error) = self.error {
+                    if !(0.0..=2.0).contains(&error) {
+                        return Err(invalid("integrator.error", "must be in [0, 2] (Ward's a; 0: no interpolation)"));
+                    }
+                    params.error = error;
+                }
+                if let Some(gather) = self.gather {
+                    if !(1..=1_000_000).contains(&gather) {
+                        return Err(invalid("integrator.gather", "must be in 1..=1000000"));
+                    }
+                    params.gather = gather;
                 }
             }
             _ => {}

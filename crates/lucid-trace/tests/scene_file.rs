@@ -226,6 +226,10 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("sppm", lucid_trace::Integrator::Sppm(lucid_trace::sppm::PhotonMapping::DEFAULT)),
         ("vpl", lucid_trace::Integrator::Vpl(lucid_trace::manylight::InstantRadiosity::DEFAULT)),
         ("lightcuts", lucid_trace::Integrator::Lightcuts(lucid_trace::manylight::Lightcuts::DEFAULT)),
+        (
+            "irradiance-cache",
+            lucid_trace::Integrator::IrradianceCache(lucid_trace::irradiance_cache::IrradianceCaching::DEFAULT),
+        ),
     ] {
         let text = scene(&format!("[integrator]\ntype = \"{name}\"\n{light}"));
         assert_eq!(parse_scene(&text, Path::new("i.toml")).unwrap().settings.integrator, expected);
@@ -245,6 +249,9 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("integrator.error", format!("[integrator]\ntype = \"lightcuts\"\nerror = 1.0\n{light}")),
         ("integrator", format!("[integrator]\ntype = \"vpl\"\nerror = 0.01\n{light}")),
         ("integrator", format!("[integrator]\ntype = \"sppm\"\nclamp = 0.1\n{light}")),
+        ("integrator.gather", format!("[integrator]\ntype = \"irradiance-cache\"\ngather = 0\n{light}")),
+        ("integrator.error", format!("[integrator]\ntype = \"irradiance-cache\"\nerror = -0.1\n{light}")),
+        ("integrator", format!("[integrator]\ntype = \"path\"\ngather = 64\n{light}")),
     ] {
         let err = parse_scene(&scene(&text), Path::new("s.toml")).unwrap_err().to_string();
         assert!(err.contains(key), "{err}");
