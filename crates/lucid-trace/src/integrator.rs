@@ -16,7 +16,7 @@ use crate::bsdf::Bsdf;
 use crate::geometry::{Intersection, Primitive};
 use crate::light::LightSample;
 use crate::material::Material;
-use crate::sampling::{Rng, orthonormal_basis, power_heuristic};
+use crate::sampling::{UniformSource, orthonormal_basis, power_heuristic};
 use crate::scene::Scene;
 
 /// Settings of the path tracer.
@@ -116,7 +116,7 @@ pub(crate) fn spawn_origin(point: Vec3, normal: Vec3, direction: Vec3) -> Vec3 {
 
 impl PathTracer {
     /// Traces one camera path.
-    pub fn trace(&self, scene: &Scene, camera_ray: Ray, rng: &mut Rng) -> PathSample {
+    pub fn trace(&self, scene: &Scene, camera_ray: Ray, rng: &mut impl UniformSource) -> PathSample {
         let mut out = PathSample::default();
         let mut ray = camera_ray;
         let mut beta = Vec3::ONE;
@@ -277,7 +277,13 @@ impl PathTracer {
     }
 
     /// Picks one light uniformly and samples it from `point`: `(selection × light pdf, sample)`.
-    fn pick_light(&self, scene: &Scene, point: Vec3, light_pick: f32, rng: &mut Rng) -> Option<(f32, LightSample)> {
+    fn pick_light(
+        &self,
+        scene: &Scene,
+        point: Vec3,
+        light_pick: f32,
+        rng: &mut impl UniformSource,
+    ) -> Option<(f32, LightSample)> {
         if scene.lights.is_empty() || self.strategy == LightStrategy::BsdfOnly {
             return None;
         }
@@ -288,7 +294,7 @@ impl PathTracer {
 
     /// Continues the path with probability `min(max β, 0.95)` once it is long enough,
     /// dividing β by that probability to stay unbiased; false ends the path.
-    pub(crate) fn russian_roulette(&self, segments: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
+    pub(crate) fn russian_roulette(&self, segments: u32, beta: &mut Vec3, rng: &mut impl UniformSource) -> bool {
         if segments <= self.rr_depth {
             return true;
         }
@@ -334,7 +340,7 @@ pub(crate) fn light_selection_probability(scene: &Scene) -> f32 {
 
 /// One of the scene's lights, uniformly (the scene must have one); one draw from `rng`.
 #[inline]
-pub(crate) fn pick_light_index(scene: &Scene, rng: &mut Rng) -> usize {
+pub(crate) fn pick_light_index(scene: &Scene, rng: &mut impl UniformSource) -> usize {
     ((rng.uniform() * scene.lights.len() as f32) as usize).min(scene.lights.len() - 1)
 }
 

@@ -15,6 +15,7 @@ pub mod manylight;
 pub mod material;
 pub mod medium;
 pub mod packet;
+pub mod pssmlt;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -4,7 +4,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-use crate::sampling::{Rng, orthonormal_basis};
+use crate::sampling::{UniformSource, orthonormal_basis};
 
 /// The Henyey–Greenstein phase function with asymmetry `g ∈ (−1, 1)` (positive: forward).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,7 +85,7 @@ impl HomogeneousMedium {
     /// Samples where along `(0, t_max)` the ray first scatters. A colour channel is chosen
     /// uniformly and the distance drawn from its exponential; the density is the average over
     /// channels (single-sample MIS over channels, as pbrt does), so the weight is unbiased.
-    pub fn sample_distance(&self, t_max: f32, rng: &mut Rng) -> MediumSample {
+    pub fn sample_distance(&self, t_max: f32, rng: &mut impl UniformSource) -> MediumSample {
         let sigma_t = self.sigma_t();
         let channel = ((rng.uniform() * 3.0) as usize).min(2);
         let s = sigma_t[channel];
@@ -109,7 +109,7 @@ impl HomogeneousMedium {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere};
+    use crate::sampling::{Rng, UNIFORM_SPHERE_PDF, uniform_sphere};
 
     #[test]
     fn hg_is_normalised_and_its_mean_cosine_is_g() {

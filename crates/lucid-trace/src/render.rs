@@ -13,6 +13,7 @@ use crate::bdpt::{Bidirectional, CameraImportance, SplatFilm, Strategies, Subpat
 use crate::integrator::{PathSample, PathTracer};
 use crate::irradiance_cache::IrradianceCaching;
 use crate::manylight::{Gather, InstantRadiosity, Lightcuts};
+use crate::pssmlt::Metropolis;
 use crate::sampling::{Rng, mix};
 use crate::scene::Scene;
 use crate::sppm::PhotonMapping;
@@ -71,11 +72,13 @@ pub enum Integrator {
     Lightcuts(Lightcuts),
     /// Irradiance caching for diffuse indirect light, path tracing for the rest.
     IrradianceCache(IrradianceCaching),
+    /// Primary-sample-space Metropolis light transport over the path tracer.
+    Pssmlt(Metropolis),
 }
 
 impl Integrator {
     /// Every integrator with the name the scene file and `--integrator` use.
-    pub const ALL: [(Integrator, &'static str); 7] = [
+    pub const ALL: [(Integrator, &'static str); 8] = [
         (Integrator::Path, "path"),
         (Integrator::Bdpt, "bdpt"),
         (Integrator::LightTracing, "light-tracing"),
@@ -83,6 +86,7 @@ impl Integrator {
         (Integrator::Vpl(InstantRadiosity::DEFAULT), "vpl"),
         (Integrator::Lightcuts(Lightcuts::DEFAULT), "lightcuts"),
         (Integrator::IrradianceCache(IrradianceCaching::DEFAULT), "irradiance-cache"),
+        (Integrator::Pssmlt(Metropolis::DEFAULT), "pssmlt"),
     ];
 
     /// The integrator called `name`.
@@ -182,6 +186,7 @@ pub fn render(
         Integrator::IrradianceCache(params) => {
             crate::irradiance_cache::render(scene, camera, settings, params, progress)
         }
+        Integrator::Pssmlt(params) => crate::pssmlt::render(scene, camera, settings, params, progress),
     }
 }
 

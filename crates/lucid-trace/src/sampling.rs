@@ -5,6 +5,32 @@ use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
 pub use lucid_scene::sampling::{Rng, mix};
 
+/// Where an estimator draws its uniform numbers: a pseudo-random stream, or (for Metropolis
+/// light transport) a point of primary sample space that the Markov chain mutates.
+pub trait UniformSource {
+    /// A number in [0, 1).
+    fn uniform(&mut self) -> f32;
+
+    /// Two numbers in [0, 1), in order.
+    #[inline]
+    fn uniform2(&mut self) -> Vec2 {
+        let x = self.uniform();
+        Vec2::new(x, self.uniform())
+    }
+}
+
+impl UniformSource for Rng {
+    #[inline(always)]
+    fn uniform(&mut self) -> f32 {
+        Rng::uniform(self)
+    }
+
+    #[inline(always)]
+    fn uniform2(&mut self) -> Vec2 {
+        Rng::uniform2(self)
+    }
+}
+
 /// Cosine-weighted direction on the hemisphere around +Z (Malley's method).
 #[inline(always)]
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {

@@ -15,12 +15,14 @@
 //!
 //! [integrator]
 //! type = "path"                  # path | bdpt | light-tracing | sppm | vpl | lightcuts
-//!                                # | irradiance-cache (all but path: no media)
+//!                                # | irradiance-cache | pssmlt (all but path and pssmlt: no media)
 //! # sppm only: photons = 65536 (per pass; default four per pixel), radius = 0.02 (initial,
 //! # world units; default two pixel widths at each visible point), alpha = 0.6667
 //! # vpl and lightcuts: light_paths = 128 (per pass; lightcuts 256, 0 for direct light only),
 //! # clamp = 0.01 (VPL distance floor, fraction of the scene's radius); lightcuts: error = 0.02
 //! # irradiance-cache: error = 0.2 (Ward's a; 0: no interpolation), gather = 1024 (rays per record)
+//! # pssmlt (spp = mutations per pixel): bootstrap = 0 (a quarter of the mutations, ≥ 100000),
+//! # chains = 0 (one per 10000 mutations, 16 to 1000), large_step = 0.3, sigma = 0.01
 //! spp = 64
 //! max_depth = 8                  # path segments, camera ray included
 //! rr_depth = 5

@@ -27,6 +27,11 @@ pub(crate) struct IntegratorSection {
     clamp: Option<f32>,
     error: Option<f32>,
     gather: Option<u32>,
+    /// pssmlt: bootstrap samples, chains, large-step probability, small-step deviation.
+    bootstrap: Option<u32>,
+    chains: Option<u32>,
+    large_step: Option<f32>,
+    sigma: Option<f32>,
 }
 
 impl Default for IntegratorSection {
@@ -46,6 +51,10 @@ impl Default for IntegratorSection {
             clamp: None,
             error: None,
             gather: None,
+            bootstrap: None,
+            chains: None,
+            large_step: None,
+            sigma: None,
         }
     }
 }
@@ -75,6 +84,11 @@ impl IntegratorSection {
         }
         if self.error.is_some() && !matches!(integrator, Integrator::Lightcuts(_) | Integrator::IrradianceCache(_)) {
             return Err(invalid("integrator", "error belongs to type = \"lightcuts\" or \"irradiance-cache\""));
+        }
+        let mlt_keys =
+            self.bootstrap.is_some() || self.chains.is_some() || self.large_step.is_some() || self.sigma.is_some();
+        if mlt_keys && !matches!(integrator, Integrator::Pssmlt(_)) {
+            return Err(invalid("integrator", "bootstrap, chains, large_step and sigma belong to type = \"pssmlt\""));
         }
         if self.gather.is_some() && !matches!(integrator, Integrator::IrradianceCache(_)) {
             return Err(invalid("integrator", "gather belongs to type = \"irradiance-cache\""));
@@ -124,6 +138,32 @@ impl IntegratorSection {
                         return Err(invalid("integrator.gather", "must be in 1..=1000000"));
                     }
                     params.gather = gather;
+                }
+            }
+            Integrator::Pssmlt(params) => {
+                if let Some(n) = self.bootstrap {
+                    if n > 100_000_000 {
+                        return Err(invalid("integrator.bootstrap", "must be at most 100000000 (0: automatic)"));
+                    }
+                    params.bootstrap = n;
+                }
+                if let Some(n) = self.chains {
+                    if n > 1_000_000 {
+                        return Err(invalid("integrator.chains", "must be at most 1000000 (0: automatic)"));
+                    }
+                    params.chains = n;
+                }
+                if let Some(p) = self.large_step {
+                    if !(p > 0.0 && p <= 1.0) {
+                        return Err(invalid("integrator.large_step", "must be in (0, 1]"));
+                    }
+                    params.large_step = p;
+                }
+                if let Some(s) = self.sigma {
+                    if !(s > 0.0 && s < 1.0) {
+                        return Err(invalid("integrator.sigma", "must be in (0, 1)"));
+                    }
+                    params.sigma = s;
                 }
             }
             _ => {}

@@ -230,6 +230,7 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
             "irradiance-cache",
             lucid_trace::Integrator::IrradianceCache(lucid_trace::irradiance_cache::IrradianceCaching::DEFAULT),
         ),
+        ("pssmlt", lucid_trace::Integrator::Pssmlt(lucid_trace::pssmlt::Metropolis::DEFAULT)),
     ] {
         let text = scene(&format!("[integrator]\ntype = \"{name}\"\n{light}"));
         assert_eq!(parse_scene(&text, Path::new("i.toml")).unwrap().settings.integrator, expected);
@@ -252,6 +253,10 @@ fn the_integrator_is_chosen_by_name_and_refused_where_it_cannot_render() {
         ("integrator.gather", format!("[integrator]\ntype = \"irradiance-cache\"\ngather = 0\n{light}")),
         ("integrator.error", format!("[integrator]\ntype = \"irradiance-cache\"\nerror = -0.1\n{light}")),
         ("integrator", format!("[integrator]\ntype = \"path\"\ngather = 64\n{light}")),
+        ("integrator.large_step", format!("[integrator]\ntype = \"pssmlt\"\nlarge_step = 0.0\n{light}")),
+        ("integrator.sigma", format!("[integrator]\ntype = \"pssmlt\"\nsigma = inf\n{light}")),
+        ("integrator.chains", format!("[integrator]\ntype = \"pssmlt\"\nchains = 2000000\n{light}")),
+        ("integrator", format!("[integrator]\ntype = \"bdpt\"\nchains = 4\n{light}")),
     ] {
         let err = parse_scene(&scene(&text), Path::new("s.toml")).unwrap_err().to_string();
         assert!(err.contains(key), "{err}");
