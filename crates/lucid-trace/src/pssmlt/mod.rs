@@ -129,7 +129,7 @@ pub(crate) fn render(
             .into_par_iter()
             .map(|c| {
                 let mutations = total_mutations / chains + u64::from(c < total_mutations % chains);
-                let mut rng = Rng::new(seed ^ 0x4348_4149_4E, c);
+                let mut rng = Rng::new(seed ^ 0x0043_4841_494E, c);
                 // The bootstrap sample to start from, in proportion to its luminance.
                 let target = rng.uniform() as f64 * total;
                 let start = cdf.partition_point(|&v| v <= target).min(bootstrap - 1);
