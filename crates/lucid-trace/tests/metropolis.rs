@@ -84,3 +84,17 @@ fn metropolis_renders_do_not_depend_on_the_thread_count() {
     assert_eq!(a.pixels(), b.pixels());
     assert_ne!(a.pixels(), run(&loaded, params, 4, 2).pixels(), "the seed must matter");
 }
+
+#[test]
+fn metropolis_agrees_with_the_path_tracer_on_glossy_materials() {
+    // materials.toml: Phong, Blinn-Phong, Ward, Lafortune, Ashikhmin-Shirley, Cook-Torrance,
+    // metals and plastics.
+    let loaded = scene("materials.toml", 32, 24);
+    let reference = mean(&run(&loaded, Integrator::Path, 1024, 3));
+    let means: Vec<f64> = (0..6).map(|seed| mean(&run(&loaded, MLT, 32, seed))).collect();
+    let m = means.iter().sum::<f64>() / means.len() as f64;
+    let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() * (means.len() - 1)) as f64).sqrt();
+    eprintln!("materials: metropolis {m} ± {se}, path tracer {reference}");
+    assert!(se < 0.01 * reference, "statistical error {se}");
+    assert!((m - reference).abs() < (3.0 * se).max(0.003 * reference), "metropolis {m} ± {se}, path tracer {reference}");
+}

@@ -4,8 +4,9 @@
 //! after every pass its relative MSE against the reference is recorded with the render time
 //! so far. From that curve: the error after the time budget, the time to reach the path
 //! tracer's error at the budget, and the slope of log error against log time (−1 where the
-//! error falls like 1/time, i.e. per-pixel RMSE like 1/√time). Photon mapping, consistent but
-//! biased, renders from scratch with doubling passes instead (see [`consistent`]).
+//! error falls like 1/time, i.e. per-pixel RMSE like 1/√time). Photon mapping (consistent but
+//! biased), Metropolis and irradiance caching (a bootstrap or a cache per render) render from
+//! scratch with doubling samples instead (see [`consistent`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -84,7 +85,9 @@ fn progressive(
     reference: Option<&Image>,
     seed: u64,
 ) -> (Image, u64, Vec<(f64, f64)>) {
-    if let Integrator::Sppm(_) = integrator {
+    // Photon mapping is consistent, not unbiased; Metropolis and the irradiance cache pay a
+    // start-up (bootstrap, cache) per render: all three render from scratch.
+    if let Integrator::Sppm(_) | Integrator::Pssmlt(_) | Integrator::IrradianceCache(_) = integrator {
         return consistent(loaded, integrator, seconds, reference, seed);
     }
     let (w, h) = dimensions(&loaded.camera);
@@ -112,9 +115,10 @@ fn progressive(
     (acc.image(), acc.samples, curve)
 }
 
-/// A consistent but biased integrator (photon mapping) cannot average independent renders:
-/// each curve point is one render from scratch with twice the passes of the one before, up to
-/// the last that fits the budget; the image returned is that last render.
+/// A consistent but biased integrator (photon mapping) cannot average independent renders, and
+/// one with a start-up cost per render should not: each curve point is one render from
+/// scratch with twice the passes of the one before, up to the last that fits the budget; the
+/// image returned is that last render.
 fn consistent(
     loaded: &LoadedScene,
     integrator: Integrator,
@@ -152,7 +156,9 @@ pub fn dimensions(camera: &RenderCamera) -> (usize, usize) {
     (k.width as usize, k.height as usize)
 }
 
-/// The curve's log-log interpolation at time `t` (extrapolated along its last segment).
+/// The curve's log-log interpolation at time `t`; beyond its end, extrapolated along its last
+/// segment but never faster than error ∝ 1/time (a render from scratch whose fixed start-up
+/// dominates — a cache, a bootstrap — has a last segment far steeper than its error keeps).
 pub fn error_at(curve: &[(f64, f64)], t: f64) -> f64 {
     match curve {
         [] => f64::NAN,
@@ -160,7 +166,11 @@ pub fn error_at(curve: &[(f64, f64)], t: f64) -> f64 {
         _ => {
             let k = curve.windows(2).position(|w| w[1].0 >= t).unwrap_or(curve.len() - 2);
             let ((t0, e0), (t1, e1)) = (curve[k], curve[k + 1]);
-            let slope = (e1.ln() - e0.ln()) / (t1.ln() - t0.ln());
+            let mut slope = (e1.ln() - e0.ln()) / (t1.ln() - t0.ln());
+            if t > t1 {
+                slope = slope.max(-1.0);
+                return (e1.ln() + slope * (t.ln() - t1.ln())).exp();
+            }
             (e0.ln() + slope * (t.ln() - t0.ln())).exp()
         }
     }
@@ -329,6 +339,9 @@ mod tests {
         assert!((time_to(&curve, 0.5) - 4.0).abs() < 1e-12);
         assert!((time_to(&curve, 0.1) - 20.0).abs() < 1e-9, "beyond the curve: error ∝ 1/time");
         assert!((log_slope(&curve) + 1.0).abs() < 1e-12);
+        // A steep last segment (start-up cost) is extrapolated as 1/time only.
+        let steep = [(4.0, 1.0), (5.0, 0.25)];
+        assert!((error_at(&steep, 10.0) - 0.125).abs() < 1e-12);
     }
 
     #[test]
