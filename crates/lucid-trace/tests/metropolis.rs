@@ -96,5 +96,8 @@ fn metropolis_agrees_with_the_path_tracer_on_glossy_materials() {
     let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() * (means.len() - 1)) as f64).sqrt();
     eprintln!("materials: metropolis {m} ± {se}, path tracer {reference}");
     assert!(se < 0.01 * reference, "statistical error {se}");
-    assert!((m - reference).abs() < (3.0 * se).max(0.003 * reference), "metropolis {m} ± {se}, path tracer {reference}");
+    assert!(
+        (m - reference).abs() < (3.0 * se).max(0.003 * reference),
+        "metropolis {m} ± {se}, path tracer {reference}"
+    );
 }
