@@ -13,7 +13,7 @@ use crate::rig::{OrbitRig, Rig};
 use crate::writer::{DatasetSpec, GenError, Shard, ViewRenderer, generate_dataset};
 
 /// The scenes of `configs/scenes/`, so `lucid gen NAME` works anywhere.
-const SCENES: [(&str, &str); 12] = [
+const SCENES: [(&str, &str); 13] = [
     ("cornell", include_str!("../../configs/scenes/cornell.toml")),
     ("spheres", include_str!("../../configs/scenes/spheres.toml")),
     ("materials", include_str!("../../configs/scenes/materials.toml")),
@@ -26,10 +26,11 @@ const SCENES: [(&str, &str); 12] = [
     ("caustic", include_str!("../../configs/scenes/caustic.toml")),
     ("door", include_str!("../../configs/scenes/door.toml")),
     ("many-lights", include_str!("../../configs/scenes/many-lights.toml")),
+    ("materials2", include_str!("../../configs/scenes/materials2.toml")),
 ];
 
 /// The built-in scenes' names.
-pub const SCENE_NAMES: [&str; 12] = [
+pub const SCENE_NAMES: [&str; 13] = [
     "cornell",
     "spheres",
     "materials",
@@ -42,6 +43,7 @@ pub const SCENE_NAMES: [&str; 12] = [
     "caustic",
     "door",
     "many-lights",
+    "materials2",
 ];
 
 /// The scenes of the NeRF and 3DGS benchmarks: object-centred like the NeRF-synthetic set and lit

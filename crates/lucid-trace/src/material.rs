@@ -9,6 +9,8 @@ use crate::bsdf::{
     AshikhminShirley, BlinnPhongLobe, Bsdf, BsdfSample, CookTorranceLobe, DiffuseAndLobe, GgxDistribution,
     LafortuneLobes, LafortuneTerm, Lambertian, MicrofacetConductor, PhongLobe, SmoothDielectric, SmoothPlastic,
     WardLobe,
+    kubelka_munk::{KmLayer, stack_reflectance},
+    metallic_roughness::MetallicRoughness,
 };
 
 /// A colour that may vary over the surface.
@@ -174,6 +176,26 @@ pub enum Material {
     },
     /// An index-matched boundary that light crosses unchanged: the surface of a medium.
     Interface,
+    /// Spatially varying metallic–roughness microfacets with an optional tangent-space normal
+    /// map (red channel of `roughness` and `metallic`; the normal map encoded as (n + 1)/2).
+    Svbrdf {
+        /// Base colour.
+        base_color: Texture,
+        /// Roughness (α = roughness²).
+        roughness: Texture,
+        /// Metalness.
+        metallic: Texture,
+        /// Tangent-space normal map.
+        normal: Option<Texture>,
+    },
+    /// Kubelka–Munk films (top first) over an opaque diffuse base: Lambertian with the
+    /// stack's reflectance.
+    Layered {
+        /// Reflectance of the base.
+        base: Texture,
+        /// The films.
+        layers: Vec<KmLayer>,
+    },
     /// Cook–Torrance with the Beckmann distribution.
     CookTorrance {
         /// Diffuse albedo.
@@ -211,6 +233,8 @@ pub enum SurfaceBsdf {
     AshikhminShirley(AshikhminShirley),
     /// See [`CookTorranceLobe`].
     CookTorrance(DiffuseAndLobe<CookTorranceLobe>),
+    /// See [`MetallicRoughness`].
+    MetallicRoughness(MetallicRoughness),
 }
 
 /// Calls `$body` with the concrete BSDF of any variant bound to `$b`.
@@ -227,6 +251,7 @@ macro_rules! each_bsdf {
             SurfaceBsdf::Ward($b) => $body,
             SurfaceBsdf::AshikhminShirley($b) => $body,
             SurfaceBsdf::CookTorrance($b) => $body,
+            SurfaceBsdf::MetallicRoughness($b) => $body,
         }
     };
 }
@@ -269,6 +294,18 @@ impl Material {
             // Crossing unchanged is refraction with η = 1 and no reflection; the integrator
             // skips interfaces before asking for a BSDF, this keeps the two consistent.
             Material::Interface => SurfaceBsdf::Dielectric(SmoothDielectric { eta: 1.0, transmittance: Vec3::ONE }),
+            Material::Layered { base, layers } => {
+                SurfaceBsdf::Lambertian(Lambertian { albedo: stack_reflectance(layers, base.eval(uv)) })
+            }
+            Material::Svbrdf { base_color, roughness, metallic, normal } => {
+                let n = normal.as_ref().map_or(Vec3::Z, |t| t.eval(uv) * 2.0 - Vec3::ONE);
+                SurfaceBsdf::MetallicRoughness(MetallicRoughness::new(
+                    base_color.eval(uv),
+                    metallic.eval(uv).x.clamp(0.0, 1.0),
+                    roughness.eval(uv).x.clamp(0.0, 1.0),
+                    n,
+                ))
+            }
             Material::CookTorrance { kd, ks, m, eta } => SurfaceBsdf::CookTorrance(DiffuseAndLobe {
                 diffuse: kd.eval(uv),
                 lobe: CookTorranceLobe { ks: *ks, m: *m, eta: *eta },
@@ -286,6 +323,8 @@ impl Material {
             | Material::CookTorrance { kd, ks, .. } => kd.eval(uv) + *ks,
             Material::Lafortune { kd, .. } => kd.eval(uv),
             Material::Interface => Vec3::ZERO,
+            Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),
+            Material::Svbrdf { base_color, .. } => base_color.eval(uv),
             Material::AshikhminShirley { rd, rs, .. } => rd.eval(uv) + *rs,
             Material::Conductor { eta, k, .. } => crate::bsdf::fresnel::fresnel_conductor(1.0, *eta, *k),
             Material::Dielectric { transmittance, .. } => *transmittance,

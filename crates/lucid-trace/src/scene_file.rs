@@ -32,6 +32,12 @@
 //! [materials.white]
 //! type = "lambertian"            # lambertian | conductor | dielectric | plastic | phong | blinn_phong
 //!                                # | lafortune | ward | ashikhmin_shirley | cook_torrance | interface
+//!                                # | layered (Kubelka–Munk films over a base: base = albedo, and
+//!                                # layers = [{ absorption = [..], scattering = [..], thickness = 0.1 }
+//!                                # or { reflectance = [..], transmittance = [..] }, ...], top first)
+//!                                # | svbrdf (metallic-roughness GGX: base_color, roughness,
+//!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
+//!                                # textures (data files linear by default) or { procedural = "tiles" })
 //! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard, or
 //!                                # { file = "t.png", colorspace = "srgb", wrap = "repeat", scale = [1, 1] }
 //!
@@ -79,6 +85,7 @@ use lucid_scene::{Intrinsics, PinholeCamera, ThinLensCamera, look_at};
 use serde::Deserialize;
 
 use crate::bsdf::LafortuneTerm;
+use crate::bsdf::kubelka_munk::KmLayer;
 use crate::environment::EnvironmentMap;
 use crate::geometry::mesh_file::load_mesh;
 use crate::geometry::procedural::{self, TriangleMesh};
@@ -89,6 +96,7 @@ use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
 use crate::render::{RenderCamera, RenderSettings};
 use crate::scene::{Emission, Scene, SceneBuilder};
 use crate::scene_integrator::IntegratorSection;
+use crate::texture_set::TileMap;
 
 /// Why a scene file could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -185,10 +193,25 @@ enum ColourOrChecker {
         #[serde(default)]
         scale: Option<[f32; 2]>,
     },
+    /// A map of a generated texture set (see [`crate::texture_set`]).
+    Procedural {
+        procedural: String,
+        #[serde(default)]
+        scale: Option<[f32; 2]>,
+    },
+}
+
+/// A scalar map: a number, or a texture whose red channel holds it.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum MapSection {
+    Scalar(f32),
+    Map(ColourOrChecker),
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+#[allow(clippy::large_enum_variant)] // parsed once per material; boxing buys nothing
 enum MaterialSection {
     Lambertian {
         albedo: ColourOrChecker,
@@ -244,6 +267,49 @@ enum MaterialSection {
         ior: f32,
     },
     Interface,
+    Layered {
+        base: ColourOrChecker,
+        layers: Vec<KmLayerSection>,
+    },
+    Svbrdf {
+        base_color: ColourOrChecker,
+        roughness: MapSection,
+        #[serde(default = "no_metal")]
+        metallic: MapSection,
+        normal: Option<ColourOrChecker>,
+    },
+}
+
+/// `c` with an image's colour space linear when not given (data maps, not colours).
+fn linear_by_default(c: &ColourOrChecker) -> ColourOrChecker {
+    match c {
+        ColourOrChecker::Image { file, colorspace, wrap, scale } => ColourOrChecker::Image {
+            file: file.clone(),
+            colorspace: Some(colorspace.clone().unwrap_or_else(|| "linear".into())),
+            wrap: wrap.clone(),
+            scale: *scale,
+        },
+        ColourOrChecker::Colour(v) => ColourOrChecker::Colour(*v),
+        ColourOrChecker::Checker { a, b, scale } => ColourOrChecker::Checker { a: *a, b: *b, scale: *scale },
+        ColourOrChecker::Procedural { procedural, scale } => {
+            ColourOrChecker::Procedural { procedural: procedural.clone(), scale: *scale }
+        }
+    }
+}
+
+fn no_metal() -> MapSection {
+    MapSection::Scalar(0.0)
+}
+
+/// A Kubelka–Munk film: coefficients and thickness, or its reflectance and transmittance.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KmLayerSection {
+    absorption: Option<[f32; 3]>,
+    scattering: Option<[f32; 3]>,
+    thickness: Option<f32>,
+    reflectance: Option<[f32; 3]>,
+    transmittance: Option<[f32; 3]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -424,6 +490,9 @@ impl Builder<'_> {
                     return Err(self.invalid(key, "checker scale must be positive"));
                 }
                 Texture::Checker { a: check(self.colour(key, *a)?)?, b: check(self.colour(key, *b)?)?, scale: *scale }
+            }
+            ColourOrChecker::Procedural { procedural, scale } => {
+                self.procedural(key, procedural, *scale, TileMap::BaseColor)?
             }
             ColourOrChecker::Image { file, colorspace, wrap, scale } => {
                 let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
@@ -620,7 +689,98 @@ impl Builder<'_> {
                 Material::CookTorrance { kd, ks, m: *roughness, eta: ior(*v)? }
             }
             MaterialSection::Interface => Material::Interface,
+            MaterialSection::Svbrdf { base_color, roughness, metallic, normal } => Material::Svbrdf {
+                base_color: self.albedo(&format!("{key}.base_color"), base_color)?,
+                roughness: self.scalar_map(&format!("{key}.roughness"), roughness, TileMap::Roughness)?,
+                metallic: self.scalar_map(&format!("{key}.metallic"), metallic, TileMap::Metallic)?,
+                normal: normal.as_ref().map(|n| self.normal_map(&format!("{key}.normal"), n)).transpose()?,
+            },
+            MaterialSection::Layered { base, layers } => Material::Layered {
+                base: self.albedo(&format!("{key}.base"), base)?,
+                layers: self.km_layers(key, layers)?,
+            },
         })
+    }
+
+    /// A map of a generated texture set.
+    fn procedural(
+        &self,
+        key: &str,
+        name: &str,
+        scale: Option<[f32; 2]>,
+        which: TileMap,
+    ) -> Result<Texture, SceneFileError> {
+        if name != "tiles" {
+            return Err(self.invalid(key, format!("unknown procedural texture set {name:?} (one of: tiles)")));
+        }
+        let scale = scale.unwrap_or([1.0, 1.0]);
+        if !scale.iter().all(|s| s.is_finite() && *s != 0.0) {
+            return Err(self.invalid(key, "texture scale must be finite and non-zero"));
+        }
+        let image = crate::texture_set::tiles(which, 512);
+        Ok(Texture::Image(std::sync::Arc::new(ImageTexture::new(&image, Wrap::Repeat, Vec2::from(scale)))))
+    }
+
+    /// A roughness or metallic map: a number in [0, 1], a procedural map, or a texture (files
+    /// are data: linear unless `colorspace` says otherwise).
+    fn scalar_map(&self, key: &str, m: &MapSection, which: TileMap) -> Result<Texture, SceneFileError> {
+        match m {
+            MapSection::Scalar(x) if x.is_finite() && (0.0..=1.0).contains(x) => Ok(Texture::Constant(Vec3::splat(*x))),
+            MapSection::Scalar(_) => Err(self.invalid(key, "must be in [0, 1]")),
+            MapSection::Map(ColourOrChecker::Procedural { procedural, scale }) => {
+                self.procedural(key, procedural, *scale, which)
+            }
+            MapSection::Map(c) => self.albedo(key, &linear_by_default(c)),
+        }
+    }
+
+    /// A tangent-space normal map: a procedural map or an image file (linear unless told).
+    fn normal_map(&self, key: &str, c: &ColourOrChecker) -> Result<Texture, SceneFileError> {
+        match c {
+            ColourOrChecker::Procedural { procedural, scale } => {
+                self.procedural(key, procedural, *scale, TileMap::Normal)
+            }
+            ColourOrChecker::Image { .. } => self.albedo(key, &linear_by_default(c)),
+            _ => Err(self.invalid(key, "a normal map is an image file or a procedural map")),
+        }
+    }
+
+    fn km_layers(&self, key: &str, sections: &[KmLayerSection]) -> Result<Vec<KmLayer>, SceneFileError> {
+        if sections.is_empty() || sections.len() > 16 {
+            return Err(self.invalid(format!("{key}.layers"), "give 1 to 16 layers (top first)"));
+        }
+        let mut layers = Vec::with_capacity(sections.len());
+        for (i, l) in sections.iter().enumerate() {
+            let at = format!("{key}.layers[{i}]");
+            let non_negative = |name: &str, v: [f32; 3]| -> Result<Vec3, SceneFileError> {
+                if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                    Ok(Vec3::from(v))
+                } else {
+                    Err(self.invalid(format!("{at}.{name}"), "values must be finite and ≥ 0"))
+                }
+            };
+            let layer = match (l.absorption, l.scattering, l.thickness, l.reflectance, l.transmittance) {
+                (Some(k), Some(s), Some(d), None, None) => {
+                    if !(d.is_finite() && d > 0.0) {
+                        return Err(self.invalid(format!("{at}.thickness"), "must be a positive number"));
+                    }
+                    KmLayer::from_coefficients(non_negative("absorption", k)?, non_negative("scattering", s)?, d)
+                }
+                (None, None, None, Some(r), Some(t)) => {
+                    let (r, t) = (non_negative("reflectance", r)?, non_negative("transmittance", t)?);
+                    if (r + t).max_element() > 1.0 {
+                        return Err(self.invalid(&at, "reflectance + transmittance must not exceed 1 (energy)"));
+                    }
+                    KmLayer { reflectance: r, transmittance: t }
+                }
+                _ => {
+                    return Err(self
+                        .invalid(&at, "give absorption, scattering and thickness, or reflectance and transmittance"));
+                }
+            };
+            layers.push(layer);
+        }
+        Ok(layers)
     }
 
     fn exponent(&self, key: &str, v: f32) -> Result<f32, SceneFileError> {

@@ -309,3 +309,77 @@ fn point_light_grids_expand_to_many_lights_and_bad_ones_are_refused() {
     let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/scenes/many-lights.toml");
     assert_eq!(lucid_trace::load_scene(&file).unwrap().scene.lights.len(), 4096);
 }
+
+#[test]
+fn layered_materials_stack_kubelka_munk_films_and_bad_ones_are_refused() {
+    let material = |layers: &str| {
+        scene(&format!(
+            "[materials.paint]\ntype = \"layered\"\nbase = [0.8, 0.8, 0.8]\n{layers}\n[[shapes]]\ntype = \"quad\"\nmaterial = \"paint\"\nemission = [0, 0, 0]\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\n"
+        ))
+    };
+    let text = material(
+        "[[materials.paint.layers]]\nabsorption = [0.1, 1.0, 3.0]\nscattering = [5.0, 5.0, 5.0]\nthickness = 0.3\n[[materials.paint.layers]]\nreflectance = [0.1, 0.1, 0.1]\ntransmittance = [0.8, 0.8, 0.8]\n",
+    );
+    let loaded = parse_scene(&text, Path::new("p.toml")).unwrap();
+    let lucid_trace::Material::Layered { layers, .. } = &loaded.scene.materials[0] else {
+        panic!("layered expected: {:?}", loaded.scene.materials[0])
+    };
+    assert_eq!(layers.len(), 2);
+    // The stack's reflectance: the second film over the base, then the first over both.
+    let albedo = loaded.scene.materials[0].albedo(glam::Vec2::ZERO);
+    let expected = layers[0].over_base(layers[1].over_base(Vec3::splat(0.8)));
+    assert!((albedo - expected).abs().max_element() < 1e-6, "{albedo} vs {expected}");
+    // The red channel absorbs least: the paint is reddish.
+    assert!(albedo.x > albedo.y && albedo.y > albedo.z, "{albedo}");
+    for (layers, key) in [
+        ("", "materials.paint"),
+        ("[[materials.paint.layers]]\nabsorption = [0.1, 0.1, 0.1]\nthickness = 0.3\n", "materials.paint.layers[0]"),
+        (
+            "[[materials.paint.layers]]\nabsorption = [0.1, 0.1, 0.1]\nscattering = [1, 1, 1]\nthickness = 0.0\n",
+            "materials.paint.layers[0].thickness",
+        ),
+        (
+            "[[materials.paint.layers]]\nabsorption = [-0.1, 0.1, 0.1]\nscattering = [1, 1, 1]\nthickness = 1.0\n",
+            "materials.paint.layers[0].absorption",
+        ),
+        (
+            "[[materials.paint.layers]]\nreflectance = [0.6, 0.1, 0.1]\ntransmittance = [0.6, 0.1, 0.1]\n",
+            "materials.paint.layers[0]",
+        ),
+    ] {
+        let err = parse_scene(&material(layers), Path::new("p.toml")).unwrap_err().to_string();
+        assert!(err.contains("p.toml") && err.contains(key), "{key}: {err}");
+    }
+}
+
+#[test]
+fn svbrdf_materials_read_numbers_textures_and_procedural_maps() {
+    let material = |body: &str| {
+        scene(&format!(
+            "[materials.m]\ntype = \"svbrdf\"\n{body}\n[[shapes]]\ntype = \"quad\"\nmaterial = \"m\"\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\n"
+        ))
+    };
+    let loaded = parse_scene(
+        &material("base_color = { procedural = \"tiles\" }\nroughness = 0.4\nnormal = { procedural = \"tiles\", scale = [2, 2] }\n"),
+        Path::new("s.toml"),
+    )
+    .unwrap();
+    let lucid_trace::Material::Svbrdf { roughness, metallic, normal, .. } = &loaded.scene.materials[0] else {
+        panic!("svbrdf expected")
+    };
+    assert_eq!(roughness.eval(glam::Vec2::ZERO), Vec3::splat(0.4));
+    assert_eq!(metallic.eval(glam::Vec2::ZERO), Vec3::ZERO, "metallic defaults to 0");
+    assert!(normal.is_some());
+    for (body, key) in [
+        ("base_color = [0.5, 0.5, 0.5]\nroughness = 1.5\n", "materials.m.roughness"),
+        (
+            "base_color = [0.5, 0.5, 0.5]\nroughness = 0.5\nmetallic = { procedural = \"bricks\" }\n",
+            "materials.m.metallic",
+        ),
+        ("base_color = [0.5, 0.5, 0.5]\nroughness = 0.5\nnormal = [0.5, 0.5, 1.0]\n", "materials.m.normal"),
+        ("base_color = [1.5, 0.5, 0.5]\nroughness = 0.5\n", "materials.m.base_color"),
+    ] {
+        let err = parse_scene(&material(body), Path::new("s.toml")).unwrap_err().to_string();
+        assert!(err.contains("s.toml") && err.contains(key), "{key}: {err}");
+    }
+}

@@ -160,6 +160,17 @@ mod tests {
             check("ggx conductor", &c);
         }
         check("plastic", &SmoothPlastic::new(Vec3::splat(0.7), 1.5));
+        for (metallic, roughness, normal) in
+            [(0.0, 0.5, Vec3::Z), (1.0, 0.4, Vec3::Z), (0.3, 0.6, Vec3::new(0.3, -0.2, 1.0))]
+        {
+            let b = crate::bsdf::metallic_roughness::MetallicRoughness::new(
+                Vec3::new(0.8, 0.6, 0.3),
+                metallic,
+                roughness,
+                normal,
+            );
+            check("metallic-roughness", &b);
+        }
     }
 
     #[test]

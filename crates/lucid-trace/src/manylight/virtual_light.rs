@@ -212,6 +212,7 @@ fn diffuse_reflectance(bsdf: &SurfaceBsdf, wo: Vec3) -> Vec3 {
         SurfaceBsdf::Ward(b) => b.diffuse,
         SurfaceBsdf::CookTorrance(b) => b.diffuse,
         SurfaceBsdf::AshikhminShirley(b) => b.rd * (Vec3::ONE - b.rs),
+        SurfaceBsdf::MetallicRoughness(b) => b.base_color * (1.0 - b.metallic),
         SurfaceBsdf::Conductor(_) | SurfaceBsdf::Dielectric(_) => Vec3::ZERO,
     }
 }
