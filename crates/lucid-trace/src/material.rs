@@ -10,6 +10,7 @@ use crate::bsdf::{
     LafortuneLobes, LafortuneTerm, Lambertian, MicrofacetConductor, PhongLobe, SmoothDielectric, SmoothPlastic,
     WardLobe,
     kubelka_munk::{KmLayer, stack_reflectance},
+    measured::{MeasuredBrdf, MerlTable},
     metallic_roughness::MetallicRoughness,
 };
 
@@ -188,6 +189,11 @@ pub enum Material {
         /// Tangent-space normal map.
         normal: Option<Texture>,
     },
+    /// A measured isotropic BRDF (a MERL table).
+    Measured {
+        /// The table, loaded once per process.
+        table: &'static MerlTable,
+    },
     /// Kubelka–Munk films (top first) over an opaque diffuse base: Lambertian with the
     /// stack's reflectance.
     Layered {
@@ -235,6 +241,8 @@ pub enum SurfaceBsdf {
     CookTorrance(DiffuseAndLobe<CookTorranceLobe>),
     /// See [`MetallicRoughness`].
     MetallicRoughness(MetallicRoughness),
+    /// See [`MeasuredBrdf`].
+    Measured(MeasuredBrdf),
 }
 
 /// Calls `$body` with the concrete BSDF of any variant bound to `$b`.
@@ -252,6 +260,7 @@ macro_rules! each_bsdf {
             SurfaceBsdf::AshikhminShirley($b) => $body,
             SurfaceBsdf::CookTorrance($b) => $body,
             SurfaceBsdf::MetallicRoughness($b) => $body,
+            SurfaceBsdf::Measured($b) => $body,
         }
     };
 }
@@ -297,6 +306,7 @@ impl Material {
             Material::Layered { base, layers } => {
                 SurfaceBsdf::Lambertian(Lambertian { albedo: stack_reflectance(layers, base.eval(uv)) })
             }
+            Material::Measured { table } => SurfaceBsdf::Measured(MeasuredBrdf { table }),
             Material::Svbrdf { base_color, roughness, metallic, normal } => {
                 let n = normal.as_ref().map_or(Vec3::Z, |t| t.eval(uv) * 2.0 - Vec3::ONE);
                 SurfaceBsdf::MetallicRoughness(MetallicRoughness::new(
@@ -325,6 +335,8 @@ impl Material {
             Material::Interface => Vec3::ZERO,
             Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),
             Material::Svbrdf { base_color, .. } => base_color.eval(uv),
+            // The albedo buffer shows the hemispherical reflectance at normal incidence.
+            Material::Measured { table } => crate::bsdf::measured::normal_incidence_albedo(&MeasuredBrdf { table }),
             Material::AshikhminShirley { rd, rs, .. } => rd.eval(uv) + *rs,
             Material::Conductor { eta, k, .. } => crate::bsdf::fresnel::fresnel_conductor(1.0, *eta, *k),
             Material::Dielectric { transmittance, .. } => *transmittance,

@@ -38,6 +38,7 @@
 //!                                # | svbrdf (metallic-roughness GGX: base_color, roughness,
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
+//!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
 //! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard, or
 //!                                # { file = "t.png", colorspace = "srgb", wrap = "repeat", scale = [1, 1] }
 //!
@@ -270,6 +271,9 @@ enum MaterialSection {
     Layered {
         base: ColourOrChecker,
         layers: Vec<KmLayerSection>,
+    },
+    Measured {
+        file: String,
     },
     Svbrdf {
         base_color: ColourOrChecker,
@@ -689,6 +693,12 @@ impl Builder<'_> {
                 Material::CookTorrance { kd, ks, m: *roughness, eta: ior(*v)? }
             }
             MaterialSection::Interface => Material::Interface,
+            MaterialSection::Measured { file } => {
+                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
+                let table = crate::bsdf::measured::MerlTable::load_shared(&path)
+                    .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
+                Material::Measured { table }
+            }
             MaterialSection::Svbrdf { base_color, roughness, metallic, normal } => Material::Svbrdf {
                 base_color: self.albedo(&format!("{key}.base_color"), base_color)?,
                 roughness: self.scalar_map(&format!("{key}.roughness"), roughness, TileMap::Roughness)?,

@@ -171,6 +171,13 @@ mod tests {
             );
             check("metallic-roughness", &b);
         }
+        let metal = MicrofacetConductor {
+            distribution: GgxDistribution { alpha_x: 0.25, alpha_y: 0.25 },
+            eta: Vec3::splat(0.2),
+            k: Vec3::splat(3.0),
+        };
+        let table = crate::bsdf::measured::MerlTable::from_fn(|wo, wi| metal.eval(wo, wi)).leak();
+        check("measured", &crate::bsdf::measured::MeasuredBrdf { table });
     }
 
     #[test]

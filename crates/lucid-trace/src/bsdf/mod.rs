@@ -17,6 +17,7 @@ pub mod kubelka_munk;
 pub mod lafortune;
 pub mod lambert;
 pub mod lobe;
+pub mod measured;
 pub mod metallic_roughness;
 pub mod microfacet;
 pub mod phong;
