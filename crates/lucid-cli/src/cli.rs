@@ -63,6 +63,51 @@ pub enum Command {
     /// Export a trained model for use outside Lucid: `web` writes 3D Gaussian splats as a
     /// self-contained WebGL2 page.
     Export(ExportArgs),
+    /// Measured BRDFs in the MERL format: `tabulate` a scene file's material into a table,
+    /// `pca` builds a basis of tables and fits one in it.
+    Brdf(BrdfArgs),
+}
+
+/// `lucid brdf`.
+#[derive(Debug, Args)]
+pub struct BrdfArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: BrdfCommand,
+}
+
+/// `lucid brdf` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum BrdfCommand {
+    /// Tabulate a material of a scene file as a MERL `.binary` table (90 × 90 × 180 cells;
+    /// textures are read at uv = 0).
+    Tabulate {
+        /// The scene file.
+        scene: PathBuf,
+        /// The material's name in the scene file.
+        #[arg(long)]
+        material: String,
+        /// The table to write (must not exist).
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Build a PCA basis of MERL tables: print each component's share of the variance and how
+    /// well the basis reconstructs each table; with --fit, fit another table in the basis
+    /// (non-negative) and write it to --output.
+    Pca {
+        /// The tables (at least two).
+        #[arg(required = true, num_args = 2..)]
+        tables: Vec<PathBuf>,
+        /// Components to keep (fewer than the tables).
+        #[arg(short, long)]
+        k: usize,
+        /// A table to fit in the basis.
+        #[arg(long, requires = "output")]
+        fit: Option<PathBuf>,
+        /// Where to write the fitted table (must not exist).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
 }
 
 /// `lucid export`.

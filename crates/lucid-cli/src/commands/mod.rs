@@ -1,6 +1,7 @@
 //! One module per subcommand; each exposes `run(args) -> anyhow::Result<()>`.
 
 mod bench;
+mod brdf;
 mod convert;
 pub mod demo;
 mod envmap;
@@ -52,6 +53,7 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Export(args) => match args.command {
             crate::cli::ExportCommand::Web(args) => export_web::run(args),
         },
+        Command::Brdf(args) => brdf::run(args.command),
     }
 }
 

@@ -134,6 +134,20 @@ impl MerlTable {
         Self { values, theta_h_cdf: cdf, theta_h_density: density }
     }
 
+    /// A table from its cells' values (BRDF units, `φd + 180·(θd + 90·θh)` order).
+    ///
+    /// # Panics
+    /// If there are not 90 · 90 · 180 values.
+    pub fn from_values(values: Vec<Vec3>) -> Self {
+        assert_eq!(values.len(), CELLS, "a MERL table has 90 · 90 · 180 cells");
+        Self::with_values(values)
+    }
+
+    /// The cells' values.
+    pub fn values(&self) -> &[Vec3] {
+        &self.values
+    }
+
     /// Tabulates `f(wo, wi)` at the cells' centres.
     pub fn from_fn(f: impl Fn(Vec3, Vec3) -> Vec3 + Sync) -> Self {
         use rayon::prelude::*;

@@ -18,6 +18,7 @@ pub mod lafortune;
 pub mod lambert;
 pub mod lobe;
 pub mod measured;
+pub mod measured_pca;
 pub mod metallic_roughness;
 pub mod microfacet;
 pub mod phong;
