@@ -336,7 +336,7 @@ impl Material {
             Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),
             Material::Svbrdf { base_color, .. } => base_color.eval(uv),
             // The albedo buffer shows the hemispherical reflectance at normal incidence.
-            Material::Measured { table } => crate::bsdf::measured::normal_incidence_albedo(&MeasuredBrdf { table }),
+            Material::Measured { table } => table.normal_albedo(),
             Material::AshikhminShirley { rd, rs, .. } => rd.eval(uv) + *rs,
             Material::Conductor { eta, k, .. } => crate::bsdf::fresnel::fresnel_conductor(1.0, *eta, *k),
             Material::Dielectric { transmittance, .. } => *transmittance,

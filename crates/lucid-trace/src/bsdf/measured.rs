@@ -57,6 +57,8 @@ pub struct MerlTable {
     theta_h_cdf: Vec<f32>,
     /// Density of half vectors per steradian in each θh band.
     theta_h_density: Vec<f32>,
+    /// Hemispherical reflectance at normal incidence (for the albedo buffer).
+    normal_albedo: Vec3,
 }
 
 /// Tables are compared by identity: two loads of one file are one table.
@@ -131,7 +133,9 @@ impl MerlTable {
         }
         cdf[THETA_H] = 1.0;
         let density = weights.iter().map(|&w| (w as f64 / total) as f32).collect();
-        Self { values, theta_h_cdf: cdf, theta_h_density: density }
+        let mut table = Self { values, theta_h_cdf: cdf, theta_h_density: density, normal_albedo: Vec3::ZERO };
+        table.normal_albedo = normal_incidence_albedo(&table);
+        table
     }
 
     /// A table from its cells' values (BRDF units, `φd + 180·(θd + 90·θh)` order).
@@ -141,6 +145,11 @@ impl MerlTable {
     pub fn from_values(values: Vec<Vec3>) -> Self {
         assert_eq!(values.len(), CELLS, "a MERL table has 90 · 90 · 180 cells");
         Self::with_values(values)
+    }
+
+    /// Hemispherical reflectance at normal incidence.
+    pub fn normal_albedo(&self) -> Vec3 {
+        self.normal_albedo
     }
 
     /// The cells' values.
@@ -340,15 +349,16 @@ impl Bsdf for MeasuredBrdf {
 }
 
 /// ∫ f(n, wi) cos θi dωi: the table's albedo at normal incidence (stratified over the
-/// hemisphere; for the albedo buffer).
-pub fn normal_incidence_albedo(brdf: &MeasuredBrdf) -> Vec3 {
+/// hemisphere), computed once per table.
+fn normal_incidence_albedo(table: &MerlTable) -> Vec3 {
     const N: usize = 32;
     let mut sum = Vec3::ZERO;
     for a in 0..N {
         for b in 0..N {
             let wi = cosine_hemisphere(Vec2::new((a as f32 + 0.5) / N as f32, (b as f32 + 0.5) / N as f32));
             // Cosine-distributed: f cos / (cos/π) = π f.
-            sum += brdf.eval(Vec3::Z, wi) * PI;
+            let (h, d, p) = half_diff(Vec3::Z, wi);
+            sum += table.lookup(h, d, p) * PI;
         }
     }
     sum / (N * N) as f32

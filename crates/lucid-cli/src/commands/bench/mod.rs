@@ -3,6 +3,7 @@
 mod hdr;
 mod integrators;
 mod lightcuts;
+mod materials;
 mod nerf;
 mod report;
 mod splat;
@@ -36,6 +37,9 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             BenchTarget::Trace => results.push(bench_trace(args.quick)?),
             BenchTarget::Hdr => results.push(hdr::run(args.quick, args.write_stack.as_deref())?),
             BenchTarget::Integrators => results.extend(integrators::run(&integrator_bench(&args))?),
+            BenchTarget::Materials => {
+                results.push(materials::run(if args.quick { 4 } else { 32 }, if args.quick { 1 } else { 5 })?)
+            }
             BenchTarget::Lightcuts => results.extend(lightcuts::run(&lightcuts::LightcutsBench {
                 scenes: args.scenes.clone().unwrap_or_else(|| vec!["many-lights".into()]),
                 width: if args.quick { args.width.min(64) } else { args.width },

@@ -1,0 +1,121 @@
+//! `lucid bench materials`: the path tracer's time per sample on one scene whose sphere takes
+//! each material in turn, against the same sphere as a GGX conductor (issue 31's reference):
+//! rounds alternate the materials and each keeps its median, so the machine's drift touches
+//! all alike.
+
+use std::time::Instant;
+
+use anyhow::Context;
+use lucid_trace::bsdf::Bsdf;
+use lucid_trace::bsdf::measured::MerlTable;
+use lucid_trace::{RenderSettings, parse_scene, render};
+use serde_json::{Value, json};
+
+const SCENE: &str = r#"
+[camera]
+position = [0.0, -3.2, 1.3]
+look_at = [0.0, 0.0, 0.5]
+up = [0.0, 0.0, 1.0]
+fov = 45.0
+width = 128
+height = 96
+
+[integrator]
+max_depth = 8
+
+[materials.floor]
+type = "lambertian"
+albedo = { a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }
+
+[[shapes]]
+type = "quad"
+material = "floor"
+scale = [3.0, 3.0, 1.0]
+
+[[shapes]]
+type = "sphere"
+material = "ball"
+radius = 0.6
+translate = [0.0, 0.0, 0.6]
+
+[[lights]]
+type = "directional"
+direction = [-0.4, -0.6, 0.7]
+irradiance = [3.0, 2.9, 2.7]
+
+[[lights]]
+type = "environment"
+radiance = [0.35, 0.42, 0.55]
+"#;
+
+const CONDUCTOR: &str = "type = \"conductor\"\neta = [0.2, 0.9, 1.1]\nk = [3.9, 2.4, 2.2]\nroughness = 0.4";
+
+/// The materials measured, by name: the reference first.
+fn materials() -> Vec<(&'static str, String)> {
+    vec![
+        ("conductor (GGX)", CONDUCTOR.into()),
+        (
+            "layered",
+            "type = \"layered\"\nbase = [0.85, 0.85, 0.82]\n[[materials.ball.layers]]\nabsorption = [0.3, 6.0, 9.0]\nscattering = [12.0, 12.0, 12.0]\nthickness = 0.15".into(),
+        ),
+        ("svbrdf", "type = \"svbrdf\"\nbase_color = [0.9, 0.6, 0.3]\nroughness = 0.4\nmetallic = 0.5".into()),
+        (
+            "svbrdf (tile maps)",
+            "type = \"svbrdf\"\nbase_color = { procedural = \"tiles\" }\nroughness = { procedural = \"tiles\" }\nmetallic = { procedural = \"tiles\" }\nnormal = { procedural = \"tiles\" }".into(),
+        ),
+        ("measured (MERL)", "type = \"measured\"\nfile = \"ggx.binary\"".into()),
+    ]
+}
+
+/// Runs the benchmark: `rounds` alternating renders at `spp`; prints and returns the table.
+pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
+    let dir = tempfile::tempdir().context("creating a temporary folder for the MERL table")?;
+    // The measured sphere is the reference conductor, tabulated.
+    let reference = parse_scene(&format!("{SCENE}\n[materials.ball]\n{CONDUCTOR}\n"), &dir.path().join("s.toml"))?;
+    let ball = reference.scene.materials.iter().find(|m| matches!(m, lucid_trace::Material::Conductor { .. }));
+    let bsdf = ball.context("the reference sphere")?.bsdf(glam::Vec2::ZERO);
+    MerlTable::from_fn(|wo, wi| bsdf.eval(wo, wi)).write(&dir.path().join("ggx.binary"))?;
+
+    let scenes: Vec<(&str, lucid_trace::LoadedScene)> = materials()
+        .into_iter()
+        .map(|(name, m)| {
+            let text = format!("{SCENE}\n[materials.ball]\n{m}\n");
+            Ok((name, parse_scene(&text, &dir.path().join("s.toml"))?))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let mut times = vec![Vec::new(); scenes.len()];
+    let mut means = vec![0.0; scenes.len()];
+    for _ in 0..rounds.max(1) {
+        for (k, (_, loaded)) in scenes.iter().enumerate() {
+            let settings = RenderSettings { spp, ..loaded.settings };
+            let started = Instant::now();
+            let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {});
+            times[k].push(started.elapsed().as_secs_f64());
+            let m = out.colour.mean();
+            means[k] = (m[0] + m[1] + m[2]) / 3.0;
+        }
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let medians: Vec<f64> = times.iter_mut().map(median).collect();
+    let samples = 128.0 * 96.0 * spp as f64;
+    println!("{:<20} {:>14} {:>12} {:>12}", "material", "µs per sample", "vs GGX", "image mean");
+    let mut rows = Vec::new();
+    for (k, (name, _)) in scenes.iter().enumerate() {
+        let per_sample = medians[k] / samples * 1e6;
+        let ratio = medians[k] / medians[0];
+        println!("{name:<20} {per_sample:>14.3} {ratio:>11.2}× {:>12.4}", means[k]);
+        rows.push(json!({"material": name, "seconds": medians[k], "microseconds_per_sample": per_sample, "vs_ggx": ratio, "image_mean": means[k]}));
+    }
+    Ok(json!({
+        "benchmark": "materials",
+        "width": 128,
+        "height": 96,
+        "spp": spp,
+        "rounds": rounds,
+        "threads": rayon::current_num_threads(),
+        "materials": rows,
+    }))
+}
