@@ -75,8 +75,8 @@ pub(crate) fn max_cos_to_box(x: Vec3, axis: Vec3, bounds: &Aabb) -> f32 {
 /// A bound on `f(wo, wi) |cos θi|` over the directions `wi` towards a box, given
 /// `max_cos(a)`, an upper bound on the cosine between local direction `a` and those
 /// directions (see [`max_cos_to_box`]); `None` where this BSDF has no bound here (glossy lobes
-/// other than GGX metals: lightcuts then refines the cluster down to single lights, which are
-/// exact).
+/// other than GGX ones — metals, and metallic–roughness without a normal map: lightcuts then
+/// refines the cluster down to single lights, which are exact).
 pub(crate) fn receiver_bound(bsdf: &SurfaceBsdf, wo: Vec3, max_cos: impl Fn(Vec3) -> f32) -> Option<Vec3> {
     if wo.z == 0.0 {
         return Some(Vec3::ZERO);
@@ -93,27 +93,38 @@ pub(crate) fn receiver_bound(bsdf: &SurfaceBsdf, wo: Vec3, max_cos: impl Fn(Vec3
         SurfaceBsdf::Plastic(b) => Some(b.eval(wo, normal) * cos),
         SurfaceBsdf::Dielectric(_) => Some(Vec3::ZERO),
         SurfaceBsdf::Conductor(b) => {
-            let ggx = b.distribution;
-            if ggx.is_smooth() {
+            if b.distribution.is_smooth() {
                 return Some(Vec3::ZERO);
             }
-            // Reflecting `wo` about the half vector gives `wi`, about the normal the mirror
-            // direction; reflection is 2-Lipschitz in the mirror's normal, so the half vector
-            // is at least half the angle from wi to the mirror direction off the normal. D
-            // falls with that angle for α ≤ 1; F ≤ 1 and G ≤ 1, and f cos θi = F D G / (4 cos θo).
-            let theta_h = 0.5 * max_cos(Vec3::new(-wo.x, -wo.y, wo.z)).acos();
-            let alpha_max = ggx.alpha_x.max(ggx.alpha_y);
-            let shape = if alpha_max < 1.0 {
-                let (s, c) = theta_h.sin_cos();
-                1.0 / (c * c + s * s / (alpha_max * alpha_max)).powi(2)
-            } else {
-                alpha_max.powi(4)
-            };
-            let d = shape / (PI * ggx.alpha_x * ggx.alpha_y);
-            Some(Vec3::splat(d / (4.0 * wo.z.abs())))
+            Some(Vec3::splat(ggx_bound(b.distribution, wo, &max_cos)))
+        }
+        // Without a normal map: the GGX lobe as a metal's (Schlick's F ≤ 1), plus the diffuse
+        // base (1 − metallic)·base/π with its coat's transmission ≤ 1. A tilted normal moves
+        // both lobes; it has no bound here.
+        SurfaceBsdf::MetallicRoughness(b) if b.normal == Vec3::Z => {
+            let ggx = crate::bsdf::GgxDistribution { alpha_x: b.alpha, alpha_y: b.alpha };
+            let diffuse = b.base_color * ((1.0 - b.metallic) * FRAC_1_PI * cos);
+            Some(Vec3::splat(ggx_bound(ggx, wo, &max_cos)) + diffuse)
         }
         _ => None,
     }
+}
+
+/// A bound on a GGX lobe's `F D G / (4 cos θo)` (its `f cos θi` with F ≤ 1) over the box.
+/// Reflecting `wo` about the half vector gives `wi`, about the normal the mirror direction;
+/// reflection is 2-Lipschitz in the mirror's normal, so the half vector is at least half the
+/// angle from `wi` to the mirror direction off the normal, and D falls with that angle for
+/// α ≤ 1; G ≤ 1.
+fn ggx_bound(ggx: crate::bsdf::GgxDistribution, wo: Vec3, max_cos: &impl Fn(Vec3) -> f32) -> f32 {
+    let theta_h = 0.5 * max_cos(Vec3::new(-wo.x, -wo.y, wo.z)).acos();
+    let alpha_max = ggx.alpha_x.max(ggx.alpha_y);
+    let shape = if alpha_max < 1.0 {
+        let (s, c) = theta_h.sin_cos();
+        1.0 / (c * c + s * s / (alpha_max * alpha_max)).powi(2)
+    } else {
+        alpha_max.powi(4)
+    };
+    shape / (PI * ggx.alpha_x * ggx.alpha_y) / (4.0 * wo.z.abs())
 }
 
 /// A bound on a cluster's geometric term at distance `distance` from its box: `1/d²` for
@@ -204,7 +215,13 @@ mod tests {
     fn receiver_bounds_hold_over_the_box() {
         let mut rng = Rng::new(3, 0);
         for trial in 0..3000 {
-            let bsdf = match trial % 3 {
+            let bsdf = match trial % 4 {
+                3 => SurfaceBsdf::MetallicRoughness(crate::bsdf::metallic_roughness::MetallicRoughness::new(
+                    uniform3(&mut rng),
+                    rng.uniform(),
+                    0.05 + rng.uniform() * 0.95,
+                    Vec3::Z,
+                )),
                 0 => SurfaceBsdf::Lambertian(Lambertian { albedo: uniform3(&mut rng) }),
                 1 => SurfaceBsdf::Plastic(SmoothPlastic::new(uniform3(&mut rng), 1.2 + rng.uniform())),
                 _ => SurfaceBsdf::Conductor(MicrofacetConductor {
