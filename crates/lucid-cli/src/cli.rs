@@ -643,7 +643,7 @@ pub struct GenArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Light-transport algorithm of the renders (default: the scene's integrator.type):
-    /// path, bdpt, light-tracing, sppm, vpl or lightcuts, with their default parameters.
+    /// path, bdpt, light-tracing, sppm, vpl, lightcuts, irradiance-cache or pssmlt, with their default parameters.
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<lucid_trace::Integrator>,
     /// Distance of the orbit cameras from the origin.
@@ -853,7 +853,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Light-transport algorithm (overrides the scene's integrator.type): path, bdpt,
-    /// light-tracing, sppm, vpl or lightcuts, with their default parameters.
+    /// light-tracing, sppm, vpl, lightcuts, irradiance-cache or pssmlt, with their default parameters.
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<lucid_trace::Integrator>,
     /// Image width (overrides the camera's; the horizontal field of view is kept).

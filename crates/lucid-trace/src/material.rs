@@ -12,6 +12,7 @@ use crate::bsdf::{
     kubelka_munk::{KmLayer, stack_reflectance},
     measured::{MeasuredBrdf, MerlTable},
     metallic_roughness::MetallicRoughness,
+    poulin_fournier::PoulinFournier,
 };
 
 /// A colour that may vary over the surface.
@@ -189,6 +190,19 @@ pub enum Material {
         /// Tangent-space normal map.
         normal: Option<Texture>,
     },
+    /// Poulin–Fournier cylindrical grooves along the tangent (see [`PoulinFournier`]).
+    PoulinFournier {
+        /// Diffuse albedo of the grooved surface's material.
+        kd: Texture,
+        /// Specular albedo.
+        ks: Vec3,
+        /// Groove period, in groove radii.
+        d: f32,
+        /// Height of the grooves' circle centres above the plane, in radii.
+        h: f32,
+        /// GGX roughness along and across the grooves.
+        sigma: Vec2,
+    },
     /// A measured isotropic BRDF (a MERL table).
     Measured {
         /// The table, loaded once per process.
@@ -243,6 +257,8 @@ pub enum SurfaceBsdf {
     MetallicRoughness(MetallicRoughness),
     /// See [`MeasuredBrdf`].
     Measured(MeasuredBrdf),
+    /// See [`PoulinFournier`].
+    PoulinFournier(PoulinFournier),
 }
 
 /// Calls `$body` with the concrete BSDF of any variant bound to `$b`.
@@ -261,6 +277,7 @@ macro_rules! each_bsdf {
             SurfaceBsdf::CookTorrance($b) => $body,
             SurfaceBsdf::MetallicRoughness($b) => $body,
             SurfaceBsdf::Measured($b) => $body,
+            SurfaceBsdf::PoulinFournier($b) => $body,
         }
     };
 }
@@ -307,6 +324,9 @@ impl Material {
                 SurfaceBsdf::Lambertian(Lambertian { albedo: stack_reflectance(layers, base.eval(uv)) })
             }
             Material::Measured { table } => SurfaceBsdf::Measured(MeasuredBrdf { table }),
+            Material::PoulinFournier { kd, ks, d, h, sigma } => {
+                SurfaceBsdf::PoulinFournier(PoulinFournier::new(kd.eval(uv), *ks, *d, *h, *sigma))
+            }
             Material::Svbrdf { base_color, roughness, metallic, normal } => {
                 let n = normal.as_ref().map_or(Vec3::Z, |t| t.eval(uv) * 2.0 - Vec3::ONE);
                 SurfaceBsdf::MetallicRoughness(MetallicRoughness::new(
@@ -330,7 +350,8 @@ impl Material {
             Material::Phong { kd, ks, .. }
             | Material::BlinnPhong { kd, ks, .. }
             | Material::Ward { kd, ks, .. }
-            | Material::CookTorrance { kd, ks, .. } => kd.eval(uv) + *ks,
+            | Material::CookTorrance { kd, ks, .. }
+            | Material::PoulinFournier { kd, ks, .. } => kd.eval(uv) + *ks,
             Material::Lafortune { kd, .. } => kd.eval(uv),
             Material::Interface => Vec3::ZERO,
             Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),

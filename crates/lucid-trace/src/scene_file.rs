@@ -39,6 +39,11 @@
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
 //!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
+//!                                # | poulin_fournier (cylindrical grooves along the surface's
+//!                                # tangent: kd, ks (kd + ks ≤ 1), d = period and h = height of the
+//!                                # groove circles' centres above the plane, in groove radii
+//!                                # (h in [0, 0.99), d ≥ 2·√(1 − h²)), sigma_x, sigma_y = GGX
+//!                                # roughness along and across the grooves, in [0.01, 1])
 //! albedo = [0.8, 0.8, 0.8]       # or { a = [..], b = [..], scale = 8 } for a checkerboard, or
 //!                                # { file = "t.png", colorspace = "srgb", wrap = "repeat", scale = [1, 1] }
 //!
@@ -274,6 +279,14 @@ enum MaterialSection {
     },
     Measured {
         file: String,
+    },
+    PoulinFournier {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        d: f32,
+        h: f32,
+        sigma_x: f32,
+        sigma_y: f32,
     },
     Svbrdf {
         base_color: ColourOrChecker,
@@ -698,6 +711,28 @@ impl Builder<'_> {
                 let table = crate::bsdf::measured::MerlTable::load_shared(&path)
                     .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
                 Material::Measured { table }
+            }
+            MaterialSection::PoulinFournier { kd, ks, d, h, sigma_x, sigma_y } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                if !(h.is_finite() && (0.0..0.99).contains(h)) {
+                    return Err(self.invalid(format!("{key}.h"), "must be in [0, 0.99)"));
+                }
+                let width = 2.0 * (1.0 - h * h).sqrt();
+                if !(d.is_finite() && *d >= width - 1e-5 && *d <= 1000.0) {
+                    return Err(self.invalid(
+                        format!("{key}.d"),
+                        format!("must be at least the groove width 2·√(1 − h²) = {width:.4} (and at most 1000)"),
+                    ));
+                }
+                let sigma = |name: &str, v: f32| -> Result<f32, SceneFileError> {
+                    if v.is_finite() && (0.01..=1.0).contains(&v) {
+                        Ok(v)
+                    } else {
+                        Err(self.invalid(format!("{key}.{name}"), "must be in [0.01, 1]"))
+                    }
+                };
+                let sigma = Vec2::new(sigma("sigma_x", *sigma_x)?, sigma("sigma_y", *sigma_y)?);
+                Material::PoulinFournier { kd, ks, d: d.max(width), h: *h, sigma }
             }
             MaterialSection::Svbrdf { base_color, roughness, metallic, normal } => Material::Svbrdf {
                 base_color: self.albedo(&format!("{key}.base_color"), base_color)?,

@@ -383,3 +383,32 @@ fn svbrdf_materials_read_numbers_textures_and_procedural_maps() {
         assert!(err.contains("s.toml") && err.contains(key), "{key}: {err}");
     }
 }
+
+#[test]
+fn poulin_fournier_grooves_read_their_geometry_and_refuse_impossible_ones() {
+    let material = |body: &str| {
+        scene(&format!(
+            "[materials.g]\ntype = \"poulin_fournier\"\nkd = [0.2, 0.2, 0.2]\n{body}\n[[shapes]]\ntype = \"quad\"\nmaterial = \"g\"\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\n"
+        ))
+    };
+    let loaded = parse_scene(
+        &material("ks = [0.7, 0.6, 0.4]\nd = 2.5\nh = 0.2\nsigma_x = 0.05\nsigma_y = 0.3\n"),
+        Path::new("g.toml"),
+    )
+    .unwrap();
+    let lucid_trace::Material::PoulinFournier { ks, d, h, sigma, .. } = &loaded.scene.materials[0] else {
+        panic!("poulin_fournier expected: {:?}", loaded.scene.materials[0])
+    };
+    assert_eq!((*ks, *d, *h, *sigma), (Vec3::new(0.7, 0.6, 0.4), 2.5, 0.2, glam::Vec2::new(0.05, 0.3)));
+    for (body, key) in [
+        ("ks = [0.9, 0.6, 0.4]\nd = 2.5\nh = 0.2\nsigma_x = 0.05\nsigma_y = 0.3\n", "materials.g"),
+        ("ks = [0.7, 0.6, 0.4]\nd = 1.5\nh = 0.2\nsigma_x = 0.05\nsigma_y = 0.3\n", "materials.g.d"),
+        ("ks = [0.7, 0.6, 0.4]\nd = 2.5\nh = 1.0\nsigma_x = 0.05\nsigma_y = 0.3\n", "materials.g.h"),
+        ("ks = [0.7, 0.6, 0.4]\nd = 2.5\nh = 0.2\nsigma_x = 0.0\nsigma_y = 0.3\n", "materials.g.sigma_x"),
+        ("ks = [0.7, 0.6, 0.4]\nd = 2.5\nh = 0.2\nsigma_x = 0.05\nsigma_y = nan\n", "materials.g.sigma_y"),
+        ("ks = [0.7, 0.6, 0.4]\nd = 2.5\nh = 0.2\nsigma_x = 0.05\n", "sigma_y"),
+    ] {
+        let err = parse_scene(&material(body), Path::new("g.toml")).unwrap_err().to_string();
+        assert!(err.contains("g.toml") && err.contains(key), "{key}: {err}");
+    }
+}

@@ -23,6 +23,7 @@ pub mod metallic_roughness;
 pub mod microfacet;
 pub mod phong;
 pub mod plastic;
+pub mod poulin_fournier;
 pub mod ward;
 
 use glam::{Vec2, Vec3};

@@ -64,6 +64,10 @@ fn materials() -> Vec<(&'static str, String)> {
             "type = \"svbrdf\"\nbase_color = { procedural = \"tiles\" }\nroughness = { procedural = \"tiles\" }\nmetallic = { procedural = \"tiles\" }\nnormal = { procedural = \"tiles\" }".into(),
         ),
         ("measured (MERL)", "type = \"measured\"\nfile = \"ggx.binary\"".into()),
+        (
+            "poulin_fournier",
+            "type = \"poulin_fournier\"\nkd = [0.1, 0.1, 0.1]\nks = [0.85, 0.8, 0.7]\nd = 2.2\nh = 0.1\nsigma_x = 0.05\nsigma_y = 0.3".into(),
+        ),
     ]
 }
 
