@@ -93,7 +93,7 @@ impl Light {
             cdf.push(area);
             let normal = match shape {
                 Shape::Triangle { p, .. } => triangle_normal(&p),
-                Shape::Sphere { .. } => Vec3::ZERO,
+                Shape::Sphere { .. } | Shape::Fibre { .. } => Vec3::ZERO,
             };
             shapes.push((shape, normal));
         }
@@ -273,6 +273,13 @@ pub fn sample_shape(shape: &Shape, u: Vec2) -> (Vec3, Vec3) {
             (centre + radius * n, n)
         }
         Shape::Triangle { p, .. } => (point_on_triangle(&p, u), triangle_normal(&p)),
+        Shape::Fibre { a, b, radius, .. } => {
+            let axis = (b - a).normalize();
+            let (e1, e2) = crate::sampling::orthonormal_basis(axis);
+            let (sin, cos) = (std::f32::consts::TAU * u.y).sin_cos();
+            let n = cos * e1 + sin * e2;
+            (a + u.x * (b - a) + radius * n, n)
+        }
     }
 }
 

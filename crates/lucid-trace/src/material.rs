@@ -9,6 +9,7 @@ use crate::bsdf::{
     AshikhminShirley, BlinnPhongLobe, Bsdf, BsdfSample, CookTorranceLobe, DiffuseAndLobe, GgxDistribution,
     LafortuneLobes, LafortuneTerm, Lambertian, MicrofacetConductor, PhongLobe, SmoothDielectric, SmoothPlastic,
     WardLobe,
+    hair::{HairModel, HairSurface, KajiyaKay},
     kubelka_munk::{KmLayer, stack_reflectance},
     measured::{MeasuredBrdf, MerlTable},
     metallic_roughness::MetallicRoughness,
@@ -203,6 +204,22 @@ pub enum Material {
         /// GGX roughness along and across the grooves.
         sigma: Vec2,
     },
+    /// A fibre after Marschner et al. (see [`HairModel`]), for hair shapes.
+    Hair {
+        /// The fibre's material.
+        model: HairModel,
+        /// Its colour, for the albedo buffer.
+        colour: Vec3,
+    },
+    /// Kajiya–Kay fibres (see [`KajiyaKay`]), for hair shapes.
+    KajiyaKay {
+        /// Diffuse albedo.
+        kd: Texture,
+        /// Specular albedo.
+        ks: Vec3,
+        /// Variance of the specular cone.
+        v: f32,
+    },
     /// A measured isotropic BRDF (a MERL table).
     Measured {
         /// The table, loaded once per process.
@@ -259,6 +276,10 @@ pub enum SurfaceBsdf {
     Measured(MeasuredBrdf),
     /// See [`PoulinFournier`].
     PoulinFournier(PoulinFournier),
+    /// See [`HairSurface`].
+    Hair(HairSurface),
+    /// See [`KajiyaKay`].
+    KajiyaKay(KajiyaKay),
 }
 
 /// Calls `$body` with the concrete BSDF of any variant bound to `$b`.
@@ -278,6 +299,8 @@ macro_rules! each_bsdf {
             SurfaceBsdf::MetallicRoughness($b) => $body,
             SurfaceBsdf::Measured($b) => $body,
             SurfaceBsdf::PoulinFournier($b) => $body,
+            SurfaceBsdf::Hair($b) => $body,
+            SurfaceBsdf::KajiyaKay($b) => $body,
         }
     };
 }
@@ -324,6 +347,8 @@ impl Material {
                 SurfaceBsdf::Lambertian(Lambertian { albedo: stack_reflectance(layers, base.eval(uv)) })
             }
             Material::Measured { table } => SurfaceBsdf::Measured(MeasuredBrdf { table }),
+            Material::Hair { model, .. } => SurfaceBsdf::Hair(HairSurface { model: *model }),
+            Material::KajiyaKay { kd, ks, v } => SurfaceBsdf::KajiyaKay(KajiyaKay { kd: kd.eval(uv), ks: *ks, v: *v }),
             Material::PoulinFournier { kd, ks, d, h, sigma } => {
                 SurfaceBsdf::PoulinFournier(PoulinFournier::new(kd.eval(uv), *ks, *d, *h, *sigma))
             }
@@ -351,7 +376,9 @@ impl Material {
             | Material::BlinnPhong { kd, ks, .. }
             | Material::Ward { kd, ks, .. }
             | Material::CookTorrance { kd, ks, .. }
-            | Material::PoulinFournier { kd, ks, .. } => kd.eval(uv) + *ks,
+            | Material::PoulinFournier { kd, ks, .. }
+            | Material::KajiyaKay { kd, ks, .. } => kd.eval(uv) + *ks,
+            Material::Hair { colour, .. } => *colour,
             Material::Lafortune { kd, .. } => kd.eval(uv),
             Material::Interface => Vec3::ZERO,
             Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),
@@ -366,6 +393,24 @@ impl Material {
 }
 
 impl SurfaceBsdf {
+    /// Whether `f(ωo, ωi) = f(ωi, ωo)`. Fibres are not: their value is the scattering
+    /// function divided by the shading cosine of `ωi`, and the offset across the fibre is
+    /// read from `ωo`.
+    pub fn is_reciprocal(&self) -> bool {
+        !matches!(self, SurfaceBsdf::Hair(_) | SurfaceBsdf::KajiyaKay(_))
+    }
+
+    /// The value a light path needs where light arrives along `wo` and leaves along `wi`:
+    /// the BSDF in camera-side order, `f(ωi, ωo)`.
+    pub fn eval_adjoint(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if self.is_reciprocal() { self.eval(wo, wi) } else { self.eval(wi, wo) }
+    }
+
+    /// A sample's value on a light path (see [`SurfaceBsdf::eval_adjoint`]).
+    pub fn sample_value_adjoint(&self, wo: Vec3, sample: &BsdfSample) -> Vec3 {
+        if sample.specular || self.is_reciprocal() { sample.f } else { self.eval(sample.wi, wo) }
+    }
+
     /// Factor that turns a sample's radiance weight into its importance weight (light paths):
     /// refraction scales radiance by 1/η² across the interface, importance not.
     pub(crate) fn adjoint_scale(&self, wo: Vec3, sample: &BsdfSample) -> f32 {

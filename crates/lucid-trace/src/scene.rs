@@ -165,6 +165,28 @@ impl SceneBuilder {
         self.primitives.push(Primitive { shape, material, light, interior_medium: interior, exterior_medium: None });
     }
 
+    /// Adds fibres (polylines, root first) of one radius, each cut into its segments.
+    pub fn fibres(&mut self, fibres: &[Vec<Vec3>], radius: f32, material: u32, emission: Option<Emission>) {
+        let light = self.area_light(emission);
+        for points in fibres {
+            let segments = points.len().saturating_sub(1).max(1) as f32;
+            for (k, w) in points.windows(2).enumerate() {
+                if (w[1] - w[0]).length_squared() == 0.0 {
+                    continue;
+                }
+                let u = glam::Vec2::new(k as f32 / segments, (k + 1) as f32 / segments);
+                let shape = Shape::Fibre { a: w[0], b: w[1], radius, u };
+                self.primitives.push(Primitive {
+                    shape,
+                    material,
+                    light,
+                    interior_medium: None,
+                    exterior_medium: None,
+                });
+            }
+        }
+    }
+
     /// Builds the scene.
     pub fn build(mut self) -> Scene {
         for p in &mut self.primitives {

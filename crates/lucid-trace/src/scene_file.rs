@@ -39,6 +39,11 @@
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
 //!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
+//!                                # | hair (fibres after Marschner, d'Eon et al.: one of color = [..]
+//!                                # (Chiang et al.'s mapping), sigma_a = [..] (per fibre radius) or
+//!                                # eumelanin/pheomelanin; beta_m = 0.3, beta_n = 0.3 (roughness),
+//!                                # alpha = 2 (cuticle tilt, degrees), eta = 1.55)
+//!                                # | kajiya_kay (fibres: kd, ks, exponent of the specular cone)
 //!                                # | poulin_fournier (cylindrical grooves along the surface's
 //!                                # tangent: kd, ks (kd + ks ≤ 1), d = period and h = height of the
 //!                                # groove circles' centres above the plane, in groove radii
@@ -49,6 +54,10 @@
 //!
 //! [[shapes]]
 //! type = "quad"                  # quad | cube | sphere | torus | torus_knot | mesh (file = "x.obj"/.ply)
+//!                                # | hair (groom = "ball" (from the unit sphere) | "tress" (from a
+//!                                # parting along x at z = 0, hanging down), fibres = 2000,
+//!                                # segments = 8, length = 0.5, radius = 0.004 (of each fibre),
+//!                                # curl = 0.3 (0..2), seed = 0; rays hit fibres only entering them)
 //! material = "white"
 //! translate = [0, -1, 0]         # transform: scale, then rotate (degrees about x, y, z), then translate
 //! rotate = [-90, 0, 0]
@@ -280,6 +289,25 @@ enum MaterialSection {
     Measured {
         file: String,
     },
+    Hair {
+        color: Option<[f32; 3]>,
+        sigma_a: Option<[f32; 3]>,
+        eumelanin: Option<f32>,
+        pheomelanin: Option<f32>,
+        #[serde(default = "default_hair_roughness")]
+        beta_m: f32,
+        #[serde(default = "default_hair_roughness")]
+        beta_n: f32,
+        #[serde(default = "default_cuticle_tilt")]
+        alpha: f32,
+        #[serde(default = "default_hair_ior")]
+        eta: f32,
+    },
+    KajiyaKay {
+        kd: ColourOrChecker,
+        ks: [f32; 3],
+        exponent: f32,
+    },
     PoulinFournier {
         kd: ColourOrChecker,
         ks: [f32; 3],
@@ -341,6 +369,18 @@ fn default_ior() -> f32 {
     1.5
 }
 
+fn default_hair_roughness() -> f32 {
+    0.3
+}
+
+fn default_cuticle_tilt() -> f32 {
+    2.0
+}
+
+fn default_hair_ior() -> f32 {
+    1.55
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ShapeSection {
@@ -369,6 +409,11 @@ struct ShapeSection {
     q: Option<u32>,
     segments: Option<u32>,
     sides: Option<u32>,
+    groom: Option<String>,
+    fibres: Option<u32>,
+    length: Option<f32>,
+    curl: Option<f32>,
+    seed: Option<u64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -712,6 +757,47 @@ impl Builder<'_> {
                     .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
                 Material::Measured { table }
             }
+            MaterialSection::Hair { color, sigma_a, eumelanin, pheomelanin, beta_m, beta_n, alpha, eta } => {
+                let within = |name: &str, v: f32, lo: f32, hi: f32| -> Result<f32, SceneFileError> {
+                    if v.is_finite() && (lo..=hi).contains(&v) {
+                        Ok(v)
+                    } else {
+                        Err(self.invalid(format!("{key}.{name}"), format!("must be in [{lo}, {hi}]")))
+                    }
+                };
+                let beta_m = within("beta_m", *beta_m, 0.05, 1.0)?;
+                let beta_n = within("beta_n", *beta_n, 0.05, 1.0)?;
+                let alpha = within("alpha", *alpha, -10.0, 10.0)?;
+                let eta = within("eta", *eta, 1.0, 3.0)?;
+                let melanin = eumelanin.is_some() || pheomelanin.is_some();
+                let given = color.is_some() as u8 + sigma_a.is_some() as u8 + melanin as u8;
+                if given != 1 {
+                    return Err(self.invalid(key, "give one of color, sigma_a, or eumelanin/pheomelanin"));
+                }
+                let sigma_a = if let Some(c) = color {
+                    let c = self.colour(&format!("{key}.color"), *c)?;
+                    crate::bsdf::hair::HairModel::sigma_a_from_colour(c, beta_n)
+                } else if let Some(s) = sigma_a {
+                    self.finite(&format!("{key}.sigma_a"), s)?;
+                    if s.iter().any(|v| *v < 0.0) {
+                        return Err(self.invalid(format!("{key}.sigma_a"), "must not be negative"));
+                    }
+                    Vec3::from(*s)
+                } else {
+                    let e = within("eumelanin", eumelanin.unwrap_or(0.0), 0.0, 50.0)?;
+                    let p = within("pheomelanin", pheomelanin.unwrap_or(0.0), 0.0, 50.0)?;
+                    crate::bsdf::hair::HairModel::sigma_a_from_melanin(e, p)
+                };
+                let model = crate::bsdf::hair::HairModel::new(sigma_a, beta_m, beta_n, alpha.to_radians(), eta);
+                Material::Hair { model, colour: crate::bsdf::hair::HairModel::colour_of(sigma_a, beta_n) }
+            }
+            MaterialSection::KajiyaKay { kd, ks, exponent } => {
+                let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
+                if !(exponent.is_finite() && (1.0..=10_000.0).contains(exponent)) {
+                    return Err(self.invalid(format!("{key}.exponent"), "must be in [1, 10000]"));
+                }
+                Material::KajiyaKay { kd, ks, v: 1.0 / exponent }
+            }
             MaterialSection::PoulinFournier { kd, ks, d, h, sigma_x, sigma_y } => {
                 let (kd, ks) = self.diffuse_specular(key, "kd", kd, "ks", *ks)?;
                 if !(h.is_finite() && (0.0..0.99).contains(h)) {
@@ -933,6 +1019,38 @@ impl Builder<'_> {
                 builder.sphere_with_medium(centre, r * scale.x.abs(), material, emission, interior);
                 return Ok(());
             }
+            "hair" => {
+                let groom_name = s.groom.as_deref().unwrap_or("ball");
+                let groom = crate::geometry::fibres::Groom::parse(groom_name).ok_or_else(|| {
+                    self.invalid(format!("{key}.groom"), format!("unknown groom {groom_name:?} (ball or tress)"))
+                })?;
+                let fibres = s.fibres.unwrap_or(2000);
+                if !(1..=200_000).contains(&fibres) {
+                    return Err(self.invalid(format!("{key}.fibres"), "must be in 1..=200000"));
+                }
+                let curl = s.curl.unwrap_or(0.3);
+                if !(curl.is_finite() && (0.0..=2.0).contains(&curl)) {
+                    return Err(self.invalid(format!("{key}.curl"), "must be in [0, 2]"));
+                }
+                let params = crate::geometry::fibres::FibreParams {
+                    groom,
+                    count: fibres,
+                    segments: count("segments", s.segments, 8)?,
+                    length: positive("length", s.length, 0.5)?,
+                    curl,
+                    seed: s.seed.unwrap_or(0),
+                };
+                let radius = positive("radius", s.radius, 0.004)?;
+                let polylines: Vec<Vec<Vec3>> = crate::geometry::fibres::grow(&params)
+                    .into_iter()
+                    .map(|f| f.into_iter().map(|p| m.transform_point3(p)).collect())
+                    .collect();
+                // Fibres stay round: their radius takes the transform's mean scale.
+                let (scale, _, _) = m.to_scale_rotation_translation();
+                let mean_scale = (scale.x * scale.y * scale.z).abs().cbrt();
+                builder.fibres(&polylines, radius * mean_scale, material, emission);
+                return Ok(());
+            }
             "mesh" => {
                 let file = s
                     .file
@@ -960,7 +1078,7 @@ impl Builder<'_> {
             other => {
                 return Err(self.invalid(
                     format!("{key}.type"),
-                    format!("unknown shape {other:?} (expected quad, cube, sphere, torus, torus_knot or mesh)"),
+                    format!("unknown shape {other:?} (expected quad, cube, sphere, torus, torus_knot, hair or mesh)"),
                 ));
             }
         };

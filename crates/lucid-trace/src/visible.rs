@@ -252,7 +252,7 @@ pub(crate) fn trace_light_path(
         }
         let wi = frame.to_world(s.wi).normalize();
         let scattered = beta
-            * s.f
+            * bsdf.sample_value_adjoint(wo, &s)
             * s.wi.z.abs()
             * (importance_factor(&bsdf, frame, hit.geometric_normal, towards_light, wi, &s) / s.pdf);
         // Russian roulette by how much of its power the bounce kept.

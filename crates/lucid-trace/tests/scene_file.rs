@@ -412,3 +412,52 @@ fn poulin_fournier_grooves_read_their_geometry_and_refuse_impossible_ones() {
         assert!(err.contains("g.toml") && err.contains(key), "{key}: {err}");
     }
 }
+
+#[test]
+fn hair_shapes_and_fibre_materials_are_read_and_bad_ones_refused() {
+    let text = |material: &str, shape: &str| {
+        scene(&format!(
+            "[materials.h]\n{material}\n[[shapes]]\ntype = \"hair\"\nmaterial = \"h\"\n{shape}\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\n"
+        ))
+    };
+    let loaded = parse_scene(
+        &text(
+            "type = \"hair\"\neumelanin = 1.3\nbeta_m = 0.2",
+            "groom = \"tress\"\nfibres = 50\nsegments = 6\nscale = 2.0",
+        ),
+        Path::new("h.toml"),
+    )
+    .unwrap();
+    // 50 fibres of 6 segments, their radius scaled with the shape.
+    let prims = loaded.scene.bvh.primitives();
+    assert_eq!(prims.len(), 300);
+    let lucid_trace::geometry::Shape::Fibre { radius, .. } = prims[0].shape else { panic!("fibres expected") };
+    assert!((radius - 0.008).abs() < 1e-6, "{radius}");
+    let lucid_trace::Material::Hair { model, colour } = &loaded.scene.materials[0] else { panic!("hair expected") };
+    assert!((model.sigma_a - lucid_trace::bsdf::hair::HairModel::sigma_a_from_melanin(1.3, 0.0)).length() < 1e-6);
+    assert!(colour.x > colour.z, "brown: {colour}");
+    // A colour maps to an absorption that maps back to it.
+    let loaded = parse_scene(&text("type = \"hair\"\ncolor = [0.7, 0.5, 0.2]", ""), Path::new("h.toml")).unwrap();
+    let lucid_trace::Material::Hair { colour, .. } = &loaded.scene.materials[0] else { panic!("hair expected") };
+    assert!((*colour - Vec3::new(0.7, 0.5, 0.2)).length() < 1e-4, "{colour}");
+    for (material, shape, key) in [
+        ("type = \"hair\"\ncolor = [0.7, 0.5, 0.2]\nsigma_a = [1, 1, 1]", "", "materials.h"),
+        ("type = \"hair\"", "", "materials.h"),
+        ("type = \"hair\"\ncolor = [0.7, 0.5, 0.2]\nbeta_m = 0.0", "", "materials.h.beta_m"),
+        ("type = \"hair\"\nsigma_a = [-1, 1, 1]", "", "materials.h.sigma_a"),
+        ("type = \"hair\"\neumelanin = 1.0\neta = 0.5", "", "materials.h.eta"),
+        (
+            "type = \"kajiya_kay\"\nkd = [0.5, 0.5, 0.5]\nks = [0.3, 0.3, 0.3]\nexponent = 0.5",
+            "",
+            "materials.h.exponent",
+        ),
+        ("type = \"kajiya_kay\"\nkd = [0.8, 0.5, 0.5]\nks = [0.3, 0.3, 0.3]\nexponent = 5", "", "materials.h"),
+        ("type = \"hair\"\neumelanin = 1.0", "groom = \"mohawk\"", "shapes[0].groom"),
+        ("type = \"hair\"\neumelanin = 1.0", "fibres = 0", "shapes[0].fibres"),
+        ("type = \"hair\"\neumelanin = 1.0", "curl = 3.0", "shapes[0].curl"),
+        ("type = \"hair\"\neumelanin = 1.0", "radius = -0.1", "shapes[0].radius"),
+    ] {
+        let err = parse_scene(&text(material, shape), Path::new("h.toml")).unwrap_err().to_string();
+        assert!(err.contains("h.toml") && err.contains(key), "{key}: {err}");
+    }
+}

@@ -195,7 +195,11 @@ impl<'a> Bidirectional<'a> {
                 break;
             }
             let wi = frame.to_world(s.wi).normalize();
-            beta *= s.f * s.wi.z.abs() / s.pdf;
+            let f = match mode {
+                Transport::Radiance => s.f,
+                Transport::Importance => bsdf.sample_value_adjoint(wo_local, &s),
+            };
+            beta *= f * s.wi.z.abs() / s.pdf;
             let mut pdf_rev = bsdf.pdf(s.wi, wo_local);
             pdf_fwd = s.pdf;
             if s.specular {

@@ -123,7 +123,12 @@ impl Vertex {
     pub(crate) fn f(&self, next: &Vertex, mode: Transport) -> Vec3 {
         let VertexKind::Surface { bsdf, frame, wo, .. } = self.kind else { return Vec3::ZERO };
         let Some(wi) = (next.point - self.point).try_normalize() else { return Vec3::ZERO };
-        bsdf.eval(frame.to_local(wo), frame.to_local(wi)) * shading_correction(frame.n, self.normal, wo, wi, mode)
+        let (wo_local, wi_local) = (frame.to_local(wo), frame.to_local(wi));
+        let f = match mode {
+            Transport::Radiance => bsdf.eval(wo_local, wi_local),
+            Transport::Importance => bsdf.eval_adjoint(wo_local, wi_local),
+        };
+        f * shading_correction(frame.n, self.normal, wo, wi, mode)
     }
 
     /// `pdf` (per solid angle at this vertex) as a density per area at `next`.

@@ -13,6 +13,7 @@ mod chi_square;
 pub mod cook_torrance;
 pub mod dielectric;
 pub mod fresnel;
+pub mod hair;
 pub mod kubelka_munk;
 pub mod lafortune;
 pub mod lambert;

@@ -43,6 +43,7 @@ pub struct Bvh {
 pub(super) enum CompactShape {
     Triangle { p0: Vec3A, e1: Vec3A, e2: Vec3A },
     Sphere { centre: Vec3A, radius2: f32 },
+    Fibre { a: Vec3A, axis: Vec3A, length: f32, radius2: f32 },
 }
 
 impl CompactShape {
@@ -54,6 +55,12 @@ impl CompactShape {
             Shape::Sphere { centre, radius } => {
                 CompactShape::Sphere { centre: centre.into(), radius2: radius * radius }
             }
+            Shape::Fibre { a, b, radius, .. } => CompactShape::Fibre {
+                a: a.into(),
+                axis: (b - a).normalize_or_zero().into(),
+                length: (b - a).length(),
+                radius2: radius * radius,
+            },
         }
     }
 
@@ -98,6 +105,24 @@ impl CompactShape {
                     None
                 }
             }
+            CompactShape::Fibre { a, axis, length, radius2 } => {
+                // The entering root only: see `Shape::Fibre`.
+                let oc = origin - a;
+                let (oc_along, dir_along) = (oc.dot(axis), dir.dot(axis));
+                let (oc_perp, dir_perp) = (oc - oc_along * axis, dir - dir_along * axis);
+                let qa = dir_perp.length_squared();
+                if qa < 1e-12 {
+                    return None;
+                }
+                let qb = oc_perp.dot(dir_perp);
+                let disc = qb * qb - qa * (oc_perp.length_squared() - radius2);
+                if disc < 0.0 {
+                    return None;
+                }
+                let t = (-qb - disc.sqrt()) / qa;
+                let along = oc_along + t * dir_along;
+                (t > t_min && t < t_max && (0.0..=length).contains(&along)).then_some((t, 0.0, 0.0))
+            }
         }
     }
 }
@@ -130,7 +155,7 @@ impl Bvh {
             .iter()
             .map(|p| match p.shape {
                 Shape::Triangle { p, uv, .. } => TriangleFrame::new(&p, uv),
-                Shape::Sphere { .. } => TriangleFrame { normal: Vec3::Z, tangent: Vec3::X },
+                Shape::Sphere { .. } | Shape::Fibre { .. } => TriangleFrame { normal: Vec3::Z, tangent: Vec3::X },
             })
             .collect();
         Self { bounds, wide: WideBvh::new(&nodes, &compact), primitives: ordered, frames }
@@ -176,7 +201,7 @@ impl Bvh {
             Shape::Triangle { p, n, uv } => {
                 Some(triangle_interaction(p, *n, *uv, self.frames[primitive as usize], t, u, v, primitive))
             }
-            Shape::Sphere { .. } => None,
+            Shape::Sphere { .. } | Shape::Fibre { .. } => None,
         }
     }
 
@@ -326,7 +351,7 @@ mod tests {
         let normals =
             |n: [Vec3; 3]| match without_flat_normals(primitive(Shape::Triangle { p, n: Some(n), uv: None })).shape {
                 Shape::Triangle { n, .. } => n,
-                Shape::Sphere { .. } => unreachable!(),
+                Shape::Sphere { .. } | Shape::Fibre { .. } => unreachable!(),
             };
         // Along the face either way: dropped; the hit then shades with the face normal.
         assert_eq!(normals([Vec3::Z; 3]), None);

@@ -2,6 +2,7 @@
 //! BVH over them, and procedural meshes.
 
 pub mod bvh;
+pub mod fibres;
 pub mod mesh_file;
 pub mod procedural;
 mod wide;
@@ -77,6 +78,20 @@ pub enum Shape {
         /// Per-vertex texture coordinates.
         uv: Option<[Vec2; 3]>,
     },
+    /// One straight segment of a fibre (hair): the side of a cylinder from `a` to `b`, which
+    /// rays hit only where they enter it. A fibre's scattering function describes everything
+    /// that happens inside it, so a ray leaving through the fibre (transmission) must not
+    /// meet it again on its way out.
+    Fibre {
+        /// Start of the axis.
+        a: Vec3,
+        /// End of the axis.
+        b: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Texture coordinate u (along the whole fibre, root 0, tip 1) at `a` and at `b`.
+        u: Vec2,
+    },
 }
 
 /// A primitive of the scene: a shape, its material and, if it emits, its light.
@@ -123,6 +138,12 @@ impl Shape {
                 Aabb { min: centre - Vec3::splat(radius), max: centre + Vec3::splat(radius) }
             }
             Shape::Triangle { p, .. } => Aabb::EMPTY.include(p[0]).include(p[1]).include(p[2]),
+            Shape::Fibre { a, b, radius, .. } => {
+                // The caps' discs are within `radius` of their centres along the other two axes.
+                let axis = (b - a).normalize_or_zero();
+                let extent = radius * (Vec3::ONE - axis * axis).max(Vec3::ZERO).powf(0.5);
+                Aabb { min: a.min(b) - extent, max: a.max(b) + extent }
+            }
         }
     }
 
@@ -131,6 +152,7 @@ impl Shape {
         match *self {
             Shape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
             Shape::Triangle { p, .. } => 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(),
+            Shape::Fibre { a, b, radius, .. } => std::f32::consts::TAU * radius * (b - a).length(),
         }
     }
 
@@ -165,6 +187,22 @@ impl Shape {
             }
             Shape::Triangle { p, n, uv } => {
                 triangle_interaction(&p, n, uv, TriangleFrame::new(&p, uv), t, u, v, primitive)
+            }
+            Shape::Fibre { a, b, radius, u: along } => {
+                let axis = (b - a).normalize();
+                let s = (point - a).dot(axis).clamp(0.0, (b - a).length());
+                let centre = a + s * axis;
+                let n = (point - centre).try_normalize().unwrap_or_else(|| crate::sampling::orthonormal_basis(axis).0);
+                let fraction = s / (b - a).length().max(f32::MIN_POSITIVE);
+                Intersection {
+                    t,
+                    point: centre + radius * n,
+                    geometric_normal: n,
+                    shading_normal: n,
+                    uv: Vec2::new(along.x + (along.y - along.x) * fraction, 0.5),
+                    tangent: axis,
+                    primitive,
+                }
             }
         }
     }

@@ -47,12 +47,12 @@ pub(super) struct Triangle8 {
     pub(super) primitive: [u32; W],
 }
 
-/// A leaf's triangles (packets of eight) and spheres, as ranges of [`WideBvh`]'s arrays.
+/// A leaf's triangles (packets of eight) and curved shapes (spheres, fibres), as ranges of [`WideBvh`]'s arrays.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Leaf {
     pub(super) packets: (u32, u32),
-    pub(super) spheres: (u32, u32),
-    /// Triangles and spheres in all.
+    pub(super) curved: (u32, u32),
+    /// Triangles and curved shapes in all.
     pub(super) shapes: u32,
 }
 
@@ -172,7 +172,7 @@ pub(super) struct WideBvh {
     pub(super) nodes: Vec<Node8>,
     pub(super) leaves: Vec<Leaf>,
     pub(super) packets: Vec<Triangle8>,
-    pub(super) spheres: Vec<(u32, CompactShape)>,
+    pub(super) curved: Vec<(u32, CompactShape)>,
     pub(super) root: u32,
 }
 
@@ -181,7 +181,7 @@ impl WideBvh {
     /// whose leaves index `shapes`.
     pub(super) fn new(nodes: &[Node], shapes: &[CompactShape]) -> Self {
         let mut wide =
-            Self { nodes: Vec::new(), leaves: Vec::new(), packets: Vec::new(), spheres: Vec::new(), root: EMPTY };
+            Self { nodes: Vec::new(), leaves: Vec::new(), packets: Vec::new(), curved: Vec::new(), root: EMPTY };
         if !nodes.is_empty() {
             wide.root = wide.collapse(nodes, &spans(nodes), shapes, 0);
         }
@@ -244,12 +244,12 @@ impl WideBvh {
 
     fn leaf(&mut self, shapes: &[CompactShape], first: u32, count: u32) -> u32 {
         let first_packet = self.packets.len() as u32;
-        let first_sphere = self.spheres.len() as u32;
+        let first_curved = self.curved.len() as u32;
         let mut triangles = Vec::new();
         for i in first..first + count {
             match shapes[i as usize] {
                 CompactShape::Triangle { p0, e1, e2 } => triangles.push((i, [p0, e1, e2])),
-                sphere @ CompactShape::Sphere { .. } => self.spheres.push((i, sphere)),
+                other => self.curved.push((i, other)),
             }
         }
         for chunk in triangles.chunks(W) {
@@ -264,7 +264,7 @@ impl WideBvh {
         }
         self.leaves.push(Leaf {
             packets: (first_packet, self.packets.len() as u32 - first_packet),
-            spheres: (first_sphere, self.spheres.len() as u32 - first_sphere),
+            curved: (first_curved, self.curved.len() as u32 - first_curved),
             shapes: count,
         });
         LEAF | (self.leaves.len() as u32 - 1)
@@ -374,7 +374,7 @@ impl WideBvh {
                 *best = Some((nearest, u[lane], v[lane], tri.primitive[lane]));
             }
         }
-        for (i, sphere) in &self.spheres[range(leaf.spheres)] {
+        for (i, sphere) in &self.curved[range(leaf.curved)] {
             if let Some((t, u, v)) = sphere.intersect(q.origin, q.direction, t_min, *closest) {
                 *closest = t;
                 *best = Some((t, u, v, *i));
@@ -400,7 +400,7 @@ impl WideBvh {
             if node & LEAF != 0 {
                 let leaf = &self.leaves[(node & !LEAF) as usize];
                 if self.packets[range(leaf.packets)].iter().any(|tri| q.triangles(tri, t_min, t_max).0 != 0)
-                    || self.spheres[range(leaf.spheres)]
+                    || self.curved[range(leaf.curved)]
                         .iter()
                         .any(|(_, s)| s.intersect(q.origin, q.direction, t_min, t_max).is_some())
                 {

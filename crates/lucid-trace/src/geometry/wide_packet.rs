@@ -169,7 +169,7 @@ impl WideBvh {
             return rays < MIN_PACKET;
         }
         let leaf = &self.leaves[(node & !LEAF) as usize];
-        leaf.shapes > rays * (leaf.packets.1 + leaf.spheres.1 + 1)
+        leaf.shapes > rays * (leaf.packets.1 + leaf.curved.1 + 1)
     }
 
     /// The nearest hit within `(t_min, t_max)` of each ray of `rays` whose bit is set in
@@ -271,7 +271,7 @@ impl WideBvh {
                 best.mask |= hit;
             }
         }
-        for (i, sphere) in &self.spheres[range(leaf.spheres)] {
+        for (i, sphere) in &self.curved[range(leaf.curved)] {
             let mut pending = lanes;
             while pending != 0 {
                 let l = pending.trailing_zeros() as usize;
@@ -321,7 +321,7 @@ impl WideBvh {
                         }
                     }
                 }
-                for (_, sphere) in &self.spheres[range(leaf.spheres)] {
+                for (_, sphere) in &self.curved[range(leaf.curved)] {
                     let mut pending = lanes;
                     while pending != 0 {
                         let l = pending.trailing_zeros() as usize;

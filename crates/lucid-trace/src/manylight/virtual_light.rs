@@ -216,6 +216,9 @@ fn diffuse_reflectance(bsdf: &SurfaceBsdf, wo: Vec3) -> Vec3 {
         // Its reflectance towards the normal, as a Lambertian surface would have.
         SurfaceBsdf::Measured(b) => b.eval(wo, Vec3::new(0.0, 0.0, wo.z.signum())) * std::f32::consts::PI,
         SurfaceBsdf::PoulinFournier(b) => b.diffuse(),
-        SurfaceBsdf::Conductor(_) | SurfaceBsdf::Dielectric(_) => Vec3::ZERO,
+        // Fibres scatter around their axis, not as a Lambertian surface.
+        SurfaceBsdf::Conductor(_) | SurfaceBsdf::Dielectric(_) | SurfaceBsdf::Hair(_) | SurfaceBsdf::KajiyaKay(_) => {
+            Vec3::ZERO
+        }
     }
 }
