@@ -770,7 +770,8 @@ pub enum BenchTarget {
     /// per-pixel relative difference.
     Lightcuts,
     /// The path tracer's time per sample with each material of issue 31 on a sphere, against
-    /// the same sphere as a GGX conductor (128x96, 32 spp, median of 5 alternating rounds).
+    /// the same sphere as a GGX conductor, and the fibre materials on a hairy ball against
+    /// GGX-conductor fibres (128x96, 32 spp, median of 5 alternating rounds).
     Materials,
     /// Every benchmark above in turn, with one JSON file and one HTML report (in `--report`,
     /// default `out/bench`).
