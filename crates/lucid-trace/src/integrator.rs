@@ -240,6 +240,32 @@ impl PathTracer {
                 break;
             }
             beta *= s.f * s.wi.z.abs() / s.pdf;
+            if s.transmission
+                && wo.z > 0.0
+                && let Material::Subsurface { profile, .. } = material
+            {
+                // Refracted into a translucent object: the light comes out elsewhere.
+                let Some((next, exit_point, pdf)) = self.leave_subsurface(
+                    scene,
+                    &hit,
+                    primitive.material,
+                    profile,
+                    light_pick,
+                    &mut beta,
+                    &mut out,
+                    rng,
+                ) else {
+                    break;
+                };
+                prev_pdf = Some(pdf);
+                prev_point = exit_point;
+                ray = next;
+                segments += 2;
+                if !self.russian_roulette(segments, &mut beta, rng) {
+                    break;
+                }
+                continue;
+            }
             prev_pdf = if s.specular { None } else { Some(s.pdf) };
             prev_point = hit.point;
             let direction = frame.to_world(s.wi).normalize();
@@ -253,6 +279,47 @@ impl PathTracer {
             }
         }
         out
+    }
+
+    /// The subsurface step after light refracted into `entry`: samples the exit point (its
+    /// weight into `beta`), lights it by next-event estimation into `out`, and samples the
+    /// exit direction: the ray to continue with, the exit point and the direction's density.
+    #[allow(clippy::too_many_arguments)]
+    fn leave_subsurface(
+        &self,
+        scene: &Scene,
+        entry: &crate::geometry::Intersection,
+        material: u32,
+        profile: &crate::subsurface::SubsurfaceProfile,
+        light_pick: f32,
+        beta: &mut Vec3,
+        out: &mut PathSample,
+        rng: &mut impl UniformSource,
+    ) -> Option<(Ray, Vec3, f32)> {
+        let exit = crate::subsurface::sample_exit(scene, entry, material, profile, rng)?;
+        out.rays += exit.rays;
+        *beta *= exit.weight;
+        if *beta == Vec3::ZERO {
+            return None;
+        }
+        let hit = exit.hit;
+        let bsdf = crate::subsurface::SubsurfaceExitBsdf::new(profile.eta);
+        let frame = Frame::new(hit.shading_normal, hit.tangent);
+        if let Some((light_pdf, ls)) = self.pick_light(scene, hit.point, light_pick, rng) {
+            let wi = frame.to_local(ls.wi);
+            let f = bsdf.eval(Vec3::Z, wi);
+            if f != Vec3::ZERO {
+                let tr = self.transmittance(scene, spawn(&hit, ls.wi), ls.distance, scene.global_medium);
+                out.rays += 1;
+                if tr != Vec3::ZERO {
+                    let weight = self.light_sample_weight(ls.delta, light_pdf, bsdf.pdf(Vec3::Z, wi));
+                    out.radiance += *beta * f * wi.z * tr * ls.li * weight / light_pdf;
+                }
+            }
+        }
+        let s = bsdf.sample(Vec3::Z, rng.uniform2(), rng.uniform())?;
+        *beta *= s.f * s.wi.z / s.pdf;
+        Some((spawn(&hit, frame.to_world(s.wi).normalize()), hit.point, s.pdf))
     }
 
     /// MIS weight of emission reached by sampling the previous vertex's BSDF or phase

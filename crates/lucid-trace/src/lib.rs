@@ -22,6 +22,7 @@ pub mod scene;
 pub mod scene_file;
 mod scene_integrator;
 pub mod sppm;
+pub mod subsurface;
 pub mod texture_set;
 mod visible;
 

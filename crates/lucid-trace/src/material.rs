@@ -220,6 +220,14 @@ pub enum Material {
         /// Variance of the specular cone.
         v: f32,
     },
+    /// A translucent object: a smooth dielectric boundary over a scattering interior whose
+    /// light comes back out through a BSSRDF (see [`crate::subsurface`]).
+    Subsurface {
+        /// The tabulated radial profile (shared: building it takes milliseconds).
+        profile: Arc<crate::subsurface::SubsurfaceProfile>,
+        /// Its diffuse reflectance, for the albedo buffer.
+        colour: Vec3,
+    },
     /// A measured isotropic BRDF (a MERL table).
     Measured {
         /// The table, loaded once per process.
@@ -348,6 +356,9 @@ impl Material {
             }
             Material::Measured { table } => SurfaceBsdf::Measured(MeasuredBrdf { table }),
             Material::Hair { model, .. } => SurfaceBsdf::Hair(HairSurface { model: *model }),
+            Material::Subsurface { profile, .. } => {
+                SurfaceBsdf::Dielectric(SmoothDielectric { eta: profile.eta, transmittance: Vec3::ONE })
+            }
             Material::KajiyaKay { kd, ks, v } => SurfaceBsdf::KajiyaKay(KajiyaKay { kd: kd.eval(uv), ks: *ks, v: *v }),
             Material::PoulinFournier { kd, ks, d, h, sigma } => {
                 SurfaceBsdf::PoulinFournier(PoulinFournier::new(kd.eval(uv), *ks, *d, *h, *sigma))
@@ -378,7 +389,7 @@ impl Material {
             | Material::CookTorrance { kd, ks, .. }
             | Material::PoulinFournier { kd, ks, .. }
             | Material::KajiyaKay { kd, ks, .. } => kd.eval(uv) + *ks,
-            Material::Hair { colour, .. } => *colour,
+            Material::Hair { colour, .. } | Material::Subsurface { colour, .. } => *colour,
             Material::Lafortune { kd, .. } => kd.eval(uv),
             Material::Interface => Vec3::ZERO,
             Material::Layered { base, layers } => stack_reflectance(layers, base.eval(uv)),

@@ -201,7 +201,7 @@ struct LightSamples {
 impl PathTracer {
     /// Whether [`PathTracer::trace_paths`] can render `scene`.
     pub fn packet_supports(scene: &Scene) -> bool {
-        !scene.has_media()
+        !scene.has_media() && !scene.has_subsurface()
     }
 
     /// Traces `out.len()` camera paths, `start(k)` giving path `k`'s camera ray and random

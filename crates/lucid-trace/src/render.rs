@@ -124,6 +124,11 @@ impl Integrator {
                     self.name()
                 ))
             }
+            Integrator::Pssmlt(_) => Ok(()),
+            _ if scene.has_subsurface() => Err(format!(
+                "the {} integrator does not follow subsurface scattering; use \"path\" or \"pssmlt\"",
+                self.name()
+            )),
             _ => Ok(()),
         }
     }

@@ -28,6 +28,8 @@ pub struct Scene {
     pub global_medium: Option<u32>,
     /// Rays may cross media or index-matched boundaries (computed once by the builder).
     has_media: bool,
+    /// Some material scatters below its surface.
+    has_subsurface: bool,
 }
 
 impl Scene {
@@ -44,6 +46,11 @@ impl Scene {
         let environment =
             lights.iter().position(|l| matches!(l, Light::ConstantEnvironment { .. } | Light::EnvironmentMap(_)));
         Ok(Scene { lights, environment, ..self.clone() })
+    }
+
+    /// Whether some material scatters light below its surface (only the path tracer follows it).
+    pub fn has_subsurface(&self) -> bool {
+        self.has_subsurface
     }
 
     /// Whether rays may cross media or index-matched boundaries (shadow rays then need
@@ -218,8 +225,10 @@ impl SceneBuilder {
             })
             .collect();
         let has_media = !self.media.is_empty() || self.materials.iter().any(|m| matches!(m, Material::Interface));
+        let has_subsurface = self.materials.iter().any(|m| matches!(m, Material::Subsurface { .. }));
         Scene {
             has_media,
+            has_subsurface,
             bvh,
             materials: self.materials,
             lights,

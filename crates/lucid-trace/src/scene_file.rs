@@ -39,6 +39,10 @@
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
 //!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
+//!                                # | subsurface (translucent: a smooth boundary of index eta = 1.33
+//!                                # over a dipole + single-scattering BSSRDF; sigma_a and reduced
+//!                                # sigma_s per unit length, or albedo and mfp (mean free path);
+//!                                # scale = 1 multiplies the coefficients; path and pssmlt only)
 //!                                # | hair (fibres after Marschner, d'Eon et al.: one of color = [..]
 //!                                # (Chiang et al.'s mapping), sigma_a = [..] (per fibre radius) or
 //!                                # eumelanin/pheomelanin; beta_m = 0.3, beta_n = 0.3 (roughness),
@@ -289,6 +293,16 @@ enum MaterialSection {
     Measured {
         file: String,
     },
+    Subsurface {
+        sigma_a: Option<[f32; 3]>,
+        sigma_s: Option<[f32; 3]>,
+        albedo: Option<[f32; 3]>,
+        mfp: Option<[f32; 3]>,
+        #[serde(default = "default_subsurface_ior")]
+        eta: f32,
+        #[serde(default = "one")]
+        scale: f32,
+    },
     Hair {
         color: Option<[f32; 3]>,
         sigma_a: Option<[f32; 3]>,
@@ -367,6 +381,14 @@ struct LafortuneSection {
 
 fn default_ior() -> f32 {
     1.5
+}
+
+fn default_subsurface_ior() -> f32 {
+    1.33
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 fn default_hair_roughness() -> f32 {
@@ -756,6 +778,48 @@ impl Builder<'_> {
                 let table = crate::bsdf::measured::MerlTable::load_shared(&path)
                     .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
                 Material::Measured { table }
+            }
+            MaterialSection::Subsurface { sigma_a, sigma_s, albedo, mfp, eta, scale } => {
+                if !(eta.is_finite() && (1.0..=3.0).contains(eta)) {
+                    return Err(self.invalid(format!("{key}.eta"), "must be in [1, 3]"));
+                }
+                if !(scale.is_finite() && *scale > 0.0) {
+                    return Err(self.invalid(format!("{key}.scale"), "must be positive"));
+                }
+                let non_negative = |name: &str, v: [f32; 3]| -> Result<Vec3, SceneFileError> {
+                    if v.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                        Ok(Vec3::from(v))
+                    } else {
+                        Err(self.invalid(format!("{key}.{name}"), "must be finite and non-negative"))
+                    }
+                };
+                let (sigma_a, sigma_s) = match (sigma_a, sigma_s, albedo, mfp) {
+                    (Some(a), Some(s), None, None) => (non_negative("sigma_a", *a)?, non_negative("sigma_s", *s)?),
+                    (None, None, Some(albedo), Some(mfp)) => {
+                        let albedo = self.colour(&format!("{key}.albedo"), *albedo)?;
+                        if albedo.max_element() > 1.0 {
+                            return Err(self.invalid(format!("{key}.albedo"), "must be in [0, 1]"));
+                        }
+                        let mfp = non_negative("mfp", *mfp)?;
+                        if mfp.min_element() <= 0.0 {
+                            return Err(self.invalid(format!("{key}.mfp"), "must be positive"));
+                        }
+                        let sigma_t = mfp.recip();
+                        (sigma_t * (Vec3::ONE - albedo), sigma_t * albedo)
+                    }
+                    _ => {
+                        return Err(self.invalid(
+                            key,
+                            "give sigma_a and sigma_s (reduced scattering), or albedo and mfp (mean free path)",
+                        ));
+                    }
+                };
+                if (sigma_a + sigma_s).min_element() <= 0.0 {
+                    return Err(self.invalid(key, "every channel needs some absorption or scattering"));
+                }
+                let profile = crate::subsurface::SubsurfaceProfile::new(sigma_a * *scale, sigma_s * *scale, *eta);
+                let colour = profile.total();
+                Material::Subsurface { profile: std::sync::Arc::new(profile), colour }
             }
             MaterialSection::Hair { color, sigma_a, eumelanin, pheomelanin, beta_m, beta_n, alpha, eta } => {
                 let within = |name: &str, v: f32, lo: f32, hi: f32| -> Result<f32, SceneFileError> {

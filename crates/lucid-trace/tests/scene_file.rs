@@ -461,3 +461,40 @@ fn hair_shapes_and_fibre_materials_are_read_and_bad_ones_refused() {
         assert!(err.contains("h.toml") && err.contains(key), "{key}: {err}");
     }
 }
+
+#[test]
+fn subsurface_materials_take_coefficients_or_albedo_and_mean_free_path() {
+    let material = |body: &str| {
+        scene(&format!(
+            "[materials.s]\ntype = \"subsurface\"\n{body}\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"s\"\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 2]\nintensity = [1, 1, 1]\n"
+        ))
+    };
+    // albedo and mfp give σt′ = 1/mfp, σs′ = albedo σt′: the same profile as the coefficients.
+    let a = parse_scene(&material("albedo = [0.9, 0.8, 0.5]\nmfp = [0.1, 0.2, 0.5]"), Path::new("s.toml")).unwrap();
+    let b =
+        parse_scene(&material("sigma_a = [1.0, 1.0, 1.0]\nsigma_s = [9.0, 4.0, 1.0]"), Path::new("s.toml")).unwrap();
+    let (lucid_trace::Material::Subsurface { colour: ca, .. }, lucid_trace::Material::Subsurface { colour: cb, .. }) =
+        (&a.scene.materials[0], &b.scene.materials[0])
+    else {
+        panic!("subsurface expected")
+    };
+    assert!((*ca - *cb).length() < 1e-4, "{ca} vs {cb}");
+    assert!(ca.x > ca.y && ca.y > ca.z && ca.x < 0.9, "{ca}");
+    assert!(a.scene.has_subsurface());
+    for (body, key) in [
+        ("sigma_a = [1, 1, 1]", "materials.s"),
+        ("sigma_a = [1, 1, 1]\nsigma_s = [1, 1, 1]\nmfp = [1, 1, 1]", "materials.s"),
+        ("sigma_a = [-1, 1, 1]\nsigma_s = [1, 1, 1]", "materials.s.sigma_a"),
+        ("sigma_a = [0, 1, 1]\nsigma_s = [0, 1, 1]", "materials.s"),
+        ("albedo = [0.5, 0.5, 0.5]\nmfp = [0, 1, 1]", "materials.s.mfp"),
+        ("albedo = [1.5, 0.5, 0.5]\nmfp = [1, 1, 1]", "materials.s.albedo"),
+        ("albedo = [0.5, 0.5, 0.5]\nmfp = [1, 1, 1]\neta = 0.8", "materials.s.eta"),
+        ("albedo = [0.5, 0.5, 0.5]\nmfp = [1, 1, 1]\nscale = 0", "materials.s.scale"),
+    ] {
+        let err = match parse_scene(&material(body), Path::new("s.toml")) {
+            Ok(_) => panic!("{body}: accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains("s.toml") && err.contains(key), "{key}: {err}");
+    }
+}

@@ -111,6 +111,10 @@ fn materials() -> Vec<(&'static str, &'static str, String)> {
             "poulin_fournier",
             "type = \"poulin_fournier\"\nkd = [0.1, 0.1, 0.1]\nks = [0.85, 0.8, 0.7]\nd = 2.2\nh = 0.1\nsigma_x = 0.05\nsigma_y = 0.3".into(),
         ),
+        (
+            "subsurface",
+            "type = \"subsurface\"\nalbedo = [0.95, 0.85, 0.7]\nmfp = [0.05, 0.03, 0.02]\neta = 1.33".into(),
+        ),
     ];
     let fibres = [
         ("fibres: conductor (GGX)", CONDUCTOR.into()),
