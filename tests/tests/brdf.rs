@@ -52,3 +52,102 @@ fn tabulate_writes_a_table_that_pca_reconstructs() {
     after.retain(|f| f != "bad.binary");
     assert_eq!(before, after, "nothing written by refused commands");
 }
+
+/// A sphere of material `ball` (its lines) on a checkered floor, the measured test's view.
+fn sphere_scene(ball: &str) -> String {
+    format!(
+        r#"
+[camera]
+position = [0.0, -3.0, 1.2]
+look_at = [0.0, 0.0, 0.3]
+up = [0.0, 0.0, 1.0]
+fov = 40.0
+width = 96
+height = 64
+
+[integrator]
+max_depth = 4
+
+[materials.floor]
+type = "lambertian"
+albedo = {{ a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }}
+
+[materials.ball]
+{ball}
+
+[[shapes]]
+type = "quad"
+material = "floor"
+scale = [3.0, 3.0, 1.0]
+
+[[shapes]]
+type = "sphere"
+material = "ball"
+radius = 0.6
+translate = [0.0, 0.0, 0.6]
+
+[[lights]]
+type = "directional"
+direction = [-0.4, -0.6, 0.7]
+irradiance = [3.0, 2.9, 2.7]
+
+[[lights]]
+type = "environment"
+radiance = [0.35, 0.42, 0.55]
+"#
+    )
+}
+
+#[test]
+fn a_neural_brdf_fitted_to_a_table_renders_the_table_s_image() {
+    let dir = temp_dir();
+    lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", "phong", "-o", "phong.binary"]).success();
+    let run = lucid_in(dir.path(), &["brdf", "fit-neural", "phong.binary", "-o", "phong.json"]).success();
+    // "held-out relative RMS error 0.0498, log-cosine RMS 0.0094" when measured.
+    let error: f64 = run
+        .stdout
+        .split("relative RMS error ")
+        .nth(1)
+        .and_then(|s| s.split(',').next())
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no error reported: {}", run.stdout));
+    assert!(error < 0.08, "held-out relative RMS error {error}");
+    assert!(run.stdout.contains("654 parameters"), "{}", run.stdout);
+
+    // The same sphere rendered with the table and with the network, same seed: measured
+    // 43.3 dB between them and means within 0.1 %.
+    let render = |ball: &str| {
+        let loaded = lucid_trace::parse_scene(&sphere_scene(ball), &dir.path().join("s.toml")).unwrap();
+        let settings = lucid_trace::RenderSettings { spp: 256, ..loaded.settings };
+        lucid_trace::render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
+    };
+    let table = render("type = \"measured\"\nfile = \"phong.binary\"");
+    let neural = render("type = \"neural\"\nfile = \"phong.json\"");
+    let mse: f64 = table
+        .pixels()
+        .iter()
+        .zip(neural.pixels())
+        .map(|(a, b)| (0..3).map(|c| (a[c].clamp(0.0, 1.0) - b[c].clamp(0.0, 1.0)) as f64).map(|d| d * d).sum::<f64>())
+        .sum::<f64>()
+        / (3 * table.pixels().len()) as f64;
+    let psnr = 10.0 * (1.0 / mse).log10();
+    let (ma, mb) = (table.mean(), neural.mean());
+    assert!(psnr > 40.0, "table vs neural: {psnr:.2} dB");
+    assert!((mb[1] / ma[1] - 1.0).abs() < 0.005, "means {ma:?} vs {mb:?}");
+
+    // Refusals: an existing output, a file that is not a table, a bad network in a scene.
+    let before = files_under(dir.path());
+    lucid_in(dir.path(), &["brdf", "fit-neural", "phong.binary", "-o", "phong.json"])
+        .failure(&["phong.json", "already exists"]);
+    std::fs::write(dir.path().join("bad.binary"), b"not a table").unwrap();
+    lucid_in(dir.path(), &["brdf", "fit-neural", "bad.binary", "-o", "bad.json"]).failure(&["bad.binary", "MERL"]);
+    std::fs::write(dir.path().join("bad.json"), b"{\"format\": \"x\"}").unwrap();
+    let err =
+        lucid_trace::parse_scene(&sphere_scene("type = \"neural\"\nfile = \"bad.json\""), &dir.path().join("s.toml"))
+            .unwrap_err()
+            .to_string();
+    assert!(err.contains("bad.json") && err.contains("materials.ball.file"), "{err}");
+    let mut after = files_under(dir.path());
+    after.retain(|f| f != "bad.binary" && f != "bad.json");
+    assert_eq!(before, after, "nothing written by refused commands");
+}

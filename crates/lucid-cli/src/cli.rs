@@ -108,6 +108,31 @@ pub enum BrdfCommand {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
+    /// Fit the reference notes' neural BRDF to a MERL table: an MLP with ReLU hidden layers and
+    /// an exponential output from half/difference angles, trained with Adam on the log of
+    /// cosine-weighted values; written as JSON for `type = "neural"` materials.
+    FitNeural {
+        /// The MERL table.
+        table: PathBuf,
+        /// The network to write (.json, must not exist).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Optimiser steps.
+        #[arg(long, default_value_t = 3000)]
+        steps: usize,
+        /// Hidden layers.
+        #[arg(long, default_value_t = 2)]
+        layers: usize,
+        /// Units per hidden layer.
+        #[arg(long, default_value_t = 21)]
+        width: usize,
+        /// Direction pairs per step.
+        #[arg(long, default_value_t = 4096)]
+        batch: usize,
+        /// Seed of the initial weights and the samples.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
 }
 
 /// `lucid export`.

@@ -13,6 +13,7 @@ use crate::bsdf::{
     kubelka_munk::{KmLayer, stack_reflectance},
     measured::{MeasuredBrdf, MerlTable},
     metallic_roughness::MetallicRoughness,
+    neural::{NeuralBrdf, NeuralBrdfModel},
     poulin_fournier::PoulinFournier,
 };
 
@@ -228,6 +229,11 @@ pub enum Material {
         /// Its diffuse reflectance, for the albedo buffer.
         colour: Vec3,
     },
+    /// A neural BRDF fitted to a measured one (`lucid brdf fit-neural`).
+    Neural {
+        /// The network, loaded once per process.
+        model: &'static NeuralBrdfModel,
+    },
     /// A measured isotropic BRDF (a MERL table).
     Measured {
         /// The table, loaded once per process.
@@ -286,6 +292,8 @@ pub enum SurfaceBsdf {
     PoulinFournier(PoulinFournier),
     /// See [`HairSurface`].
     Hair(HairSurface),
+    /// See [`NeuralBrdf`].
+    Neural(NeuralBrdf),
     /// See [`KajiyaKay`].
     KajiyaKay(KajiyaKay),
 }
@@ -308,6 +316,7 @@ macro_rules! each_bsdf {
             SurfaceBsdf::Measured($b) => $body,
             SurfaceBsdf::PoulinFournier($b) => $body,
             SurfaceBsdf::Hair($b) => $body,
+            SurfaceBsdf::Neural($b) => $body,
             SurfaceBsdf::KajiyaKay($b) => $body,
         }
     };
@@ -355,6 +364,7 @@ impl Material {
                 SurfaceBsdf::Lambertian(Lambertian { albedo: stack_reflectance(layers, base.eval(uv)) })
             }
             Material::Measured { table } => SurfaceBsdf::Measured(MeasuredBrdf { table }),
+            Material::Neural { model } => SurfaceBsdf::Neural(NeuralBrdf { model }),
             Material::Hair { model, .. } => SurfaceBsdf::Hair(HairSurface { model: *model }),
             Material::Subsurface { profile, .. } => {
                 SurfaceBsdf::Dielectric(SmoothDielectric { eta: profile.eta, transmittance: Vec3::ONE })
@@ -396,6 +406,7 @@ impl Material {
             Material::Svbrdf { base_color, .. } => base_color.eval(uv),
             // The albedo buffer shows the hemispherical reflectance at normal incidence.
             Material::Measured { table } => table.normal_albedo(),
+            Material::Neural { model } => model.normal_albedo(),
             Material::AshikhminShirley { rd, rs, .. } => rd.eval(uv) + *rs,
             Material::Conductor { eta, k, .. } => crate::bsdf::fresnel::fresnel_conductor(1.0, *eta, *k),
             Material::Dielectric { transmittance, .. } => *transmittance,

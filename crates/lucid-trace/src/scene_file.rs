@@ -39,6 +39,8 @@
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
 //!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
+//!                                # | neural (file = "gold-paint.json": a neural BRDF that
+//!                                # `lucid brdf fit-neural` fitted to a table)
 //!                                # | subsurface (translucent: a smooth boundary of index eta = 1.33
 //!                                # over a dipole + single-scattering BSSRDF; sigma_a and reduced
 //!                                # sigma_s per unit length, or albedo and mfp (mean free path);
@@ -291,6 +293,9 @@ enum MaterialSection {
         layers: Vec<KmLayerSection>,
     },
     Measured {
+        file: String,
+    },
+    Neural {
         file: String,
     },
     Subsurface {
@@ -883,6 +888,12 @@ impl Builder<'_> {
                 };
                 let sigma = Vec2::new(sigma("sigma_x", *sigma_x)?, sigma("sigma_y", *sigma_y)?);
                 Material::PoulinFournier { kd, ks, d: d.max(width), h: *h, sigma }
+            }
+            MaterialSection::Neural { file } => {
+                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
+                let model = crate::bsdf::neural::NeuralBrdfModel::load_shared(&path)
+                    .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
+                Material::Neural { model }
             }
             MaterialSection::Svbrdf { base_color, roughness, metallic, normal } => Material::Svbrdf {
                 base_color: self.albedo(&format!("{key}.base_color"), base_color)?,

@@ -14,6 +14,11 @@ pub fn run(command: BrdfCommand) -> anyhow::Result<()> {
     match command {
         BrdfCommand::Tabulate { scene, material, output } => tabulate(&scene, &material, &output),
         BrdfCommand::Pca { tables, k, fit, output } => pca(&tables, k, fit.as_deref(), output.as_deref()),
+        BrdfCommand::FitNeural { table, output, steps, layers, width, batch, seed } => {
+            refuse_existing(&output)?;
+            let settings = super::brdf_neural::FitSettings { steps, layers, width, batch, seed };
+            super::brdf_neural::fit(&table, &output, &settings)
+        }
     }
 }
 

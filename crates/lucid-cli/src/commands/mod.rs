@@ -2,6 +2,7 @@
 
 mod bench;
 mod brdf;
+mod brdf_neural;
 mod convert;
 pub mod demo;
 mod envmap;

@@ -14,8 +14,8 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+use super::half_vector::{HalfVectorDistribution, normal_incidence_albedo};
 use super::{Bsdf, BsdfSample, reflect};
-use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 
 /// Table resolution in θh.
 pub const THETA_H: usize = 90;
@@ -26,8 +26,6 @@ pub const PHI_D: usize = 180;
 const CELLS: usize = THETA_H * THETA_D * PHI_D;
 /// MERL's channel scale factors (stored value × factor = BRDF).
 const SCALE: [f64; 3] = [1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0];
-/// Share of samples drawn from the cosine lobe.
-const COSINE_SHARE: f32 = 0.25;
 
 /// Why a table could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -53,10 +51,8 @@ pub enum MerlError {
 /// A tabulated isotropic BRDF.
 pub struct MerlTable {
     values: Vec<Vec3>,
-    /// Cumulative probabilities of the θh bands (from 0, length THETA_H + 1).
-    theta_h_cdf: Vec<f32>,
-    /// Density of half vectors per steradian in each θh band.
-    theta_h_density: Vec<f32>,
+    /// Where sampled half vectors go.
+    half_vectors: HalfVectorDistribution,
     /// Hemispherical reflectance at normal incidence (for the albedo buffer).
     normal_albedo: Vec3,
 }
@@ -72,12 +68,6 @@ impl std::fmt::Debug for MerlTable {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "MerlTable({THETA_H}×{THETA_D}×{PHI_D})")
     }
-}
-
-/// θh at the lower edge of band `k` (square-root scale).
-fn theta_h_edge(k: usize) -> f32 {
-    let x = k as f32 / THETA_H as f32;
-    x * x * FRAC_PI_2
 }
 
 /// Rusinkiewicz's coordinates `(θh, θd, φd)` of the pair, φd folded into [0, π).
@@ -110,31 +100,20 @@ pub fn from_half_diff(theta_h: f32, theta_d: f32, phi_d: f32) -> (Vec3, Vec3) {
 
 impl MerlTable {
     fn with_values(values: Vec<Vec3>) -> Self {
-        // Mean luminance of each θh band, floored so that every band can be sampled.
-        let mut weights: Vec<f32> = (0..THETA_H)
+        // Mean luminance of each θh band.
+        let weights: Vec<f32> = (0..THETA_H)
             .map(|k| {
                 let band = &values[k * THETA_D * PHI_D..(k + 1) * THETA_D * PHI_D];
                 band.iter().map(|v| v.dot(Vec3::new(0.2126, 0.7152, 0.0722)) as f64).sum::<f64>() as f32
                     / band.len() as f32
             })
             .collect();
-        let floor = 1e-3 * weights.iter().cloned().fold(0.0, f32::max).max(1e-6);
-        for w in &mut weights {
-            *w = w.max(floor);
-        }
-        let solid_angle =
-            |k: usize| 2.0 * std::f64::consts::PI * (theta_h_edge(k).cos() - theta_h_edge(k + 1).cos()).max(0.0) as f64;
-        let total: f64 = (0..THETA_H).map(|k| weights[k] as f64 * solid_angle(k)).sum();
-        let mut cdf = vec![0.0f32; THETA_H + 1];
-        let mut acc = 0.0f64;
-        for k in 0..THETA_H {
-            acc += weights[k] as f64 * solid_angle(k) / total;
-            cdf[k + 1] = acc as f32;
-        }
-        cdf[THETA_H] = 1.0;
-        let density = weights.iter().map(|&w| (w as f64 / total) as f32).collect();
-        let mut table = Self { values, theta_h_cdf: cdf, theta_h_density: density, normal_albedo: Vec3::ZERO };
-        table.normal_albedo = normal_incidence_albedo(&table);
+        let half_vectors = HalfVectorDistribution::from_band_weights(&weights);
+        let mut table = Self { values, half_vectors, normal_albedo: Vec3::ZERO };
+        table.normal_albedo = normal_incidence_albedo(|wo, wi| {
+            let (h, d, p) = half_diff(wo, wi);
+            table.lookup(h, d, p)
+        });
         table
     }
 
@@ -272,25 +251,6 @@ impl MerlTable {
         }
         sum
     }
-
-    /// Density (per steradian) of a half vector at `theta_h` under the tabulated distribution.
-    fn half_vector_pdf(&self, theta_h: f32) -> f32 {
-        let k = (((theta_h.max(0.0) / FRAC_PI_2).sqrt() * THETA_H as f32) as usize).min(THETA_H - 1);
-        self.theta_h_density[k]
-    }
-
-    /// A half vector from the tabulated distribution.
-    fn sample_half_vector(&self, u: Vec2) -> Vec3 {
-        let k = self.theta_h_cdf.partition_point(|&c| c <= u.x).clamp(1, THETA_H) - 1;
-        let (lo, hi) = (self.theta_h_cdf[k], self.theta_h_cdf[k + 1]);
-        let t = if hi > lo { (u.x - lo) / (hi - lo) } else { 0.5 };
-        // Uniform in solid angle within the band: cos θ uniform between its edges.
-        let (c0, c1) = (theta_h_edge(k).cos(), theta_h_edge(k + 1).cos());
-        let cos = c0 + (c1 - c0) * t.clamp(0.0, 1.0);
-        let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        Vec3::new(sin * phi.cos(), sin * phi.sin(), cos)
-    }
 }
 
 /// A measured BRDF at a surface point.
@@ -309,12 +269,7 @@ impl MeasuredBrdf {
     }
 
     fn upper_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let h = (wo + wi).normalize_or_zero();
-        if h == Vec3::ZERO {
-            return COSINE_SHARE * cosine_hemisphere_pdf(wi.z);
-        }
-        let half = self.table.half_vector_pdf(h.z.clamp(-1.0, 1.0).acos()) / (4.0 * wo.dot(h).abs());
-        (1.0 - COSINE_SHARE) * half + COSINE_SHARE * cosine_hemisphere_pdf(wi.z)
+        self.table.half_vectors.direction_pdf(wo, wi)
     }
 }
 
@@ -331,10 +286,7 @@ impl Bsdf for MeasuredBrdf {
         }
         let flip = wo.z < 0.0;
         let up = if flip { -wo } else { wo };
-        let wi = if uc < COSINE_SHARE { cosine_hemisphere(u) } else { reflect(up, self.table.sample_half_vector(u)) };
-        if wi.z <= 0.0 {
-            return None;
-        }
+        let wi = self.table.half_vectors.sample_direction(up, u, uc)?;
         let pdf = self.upper_pdf(up, wi);
         let (h, d, p) = half_diff(up, wi);
         let f = self.table.lookup(h, d, p);
@@ -346,22 +298,6 @@ impl Bsdf for MeasuredBrdf {
         let Some((wo, wi)) = Self::upper(wo, wi) else { return 0.0 };
         self.upper_pdf(wo, wi)
     }
-}
-
-/// ∫ f(n, wi) cos θi dωi: the table's albedo at normal incidence (stratified over the
-/// hemisphere), computed once per table.
-fn normal_incidence_albedo(table: &MerlTable) -> Vec3 {
-    const N: usize = 32;
-    let mut sum = Vec3::ZERO;
-    for a in 0..N {
-        for b in 0..N {
-            let wi = cosine_hemisphere(Vec2::new((a as f32 + 0.5) / N as f32, (b as f32 + 0.5) / N as f32));
-            // Cosine-distributed: f cos / (cos/π) = π f.
-            let (h, d, p) = half_diff(Vec3::Z, wi);
-            sum += table.lookup(h, d, p) * PI;
-        }
-    }
-    sum / (N * N) as f32
 }
 
 /// Lambert's constant, for tests of tabulation.

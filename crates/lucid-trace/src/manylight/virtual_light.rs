@@ -215,6 +215,7 @@ fn diffuse_reflectance(bsdf: &SurfaceBsdf, wo: Vec3) -> Vec3 {
         SurfaceBsdf::MetallicRoughness(b) => b.base_color * (1.0 - b.metallic),
         // Its reflectance towards the normal, as a Lambertian surface would have.
         SurfaceBsdf::Measured(b) => b.eval(wo, Vec3::new(0.0, 0.0, wo.z.signum())) * std::f32::consts::PI,
+        SurfaceBsdf::Neural(b) => b.eval(wo, Vec3::new(0.0, 0.0, wo.z.signum())) * std::f32::consts::PI,
         SurfaceBsdf::PoulinFournier(b) => b.diffuse(),
         // Fibres scatter around their axis, not as a Lambertian surface.
         SurfaceBsdf::Conductor(_) | SurfaceBsdf::Dielectric(_) | SurfaceBsdf::Hair(_) | SurfaceBsdf::KajiyaKay(_) => {
