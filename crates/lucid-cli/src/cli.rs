@@ -644,8 +644,8 @@ pub enum ResponseArg {
 /// `lucid gen`.
 #[derive(Debug, Args)]
 pub struct GenArgs {
-    /// A built-in scene (cornell, spheres, materials, media, object, studio, garden, trophy, toys) or a
-    /// scene .toml file.
+    /// A built-in scene (cornell, spheres, materials, media, object, studio, garden, trophy, toys,
+    /// caustic, door, many-lights, materials2) or a scene .toml file.
     pub scene: String,
     /// The camera rig: orbit, brackets, lightfield, olat, or a rig file (configs/rigs/*.toml)
     /// whose `type` is one of those and whose keys set the options below (options given on

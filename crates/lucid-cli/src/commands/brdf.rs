@@ -16,7 +16,7 @@ pub fn run(command: BrdfCommand) -> anyhow::Result<()> {
         BrdfCommand::Pca { tables, k, fit, output } => pca(&tables, k, fit.as_deref(), output.as_deref()),
         BrdfCommand::FitNeural { table, output, steps, layers, width, batch, seed } => {
             refuse_existing(&output)?;
-            let settings = super::brdf_neural::FitSettings { steps, layers, width, batch, seed };
+            let settings = super::brdf_neural::FitSettings { steps, layers, width, batch, seed, progress: true };
             super::brdf_neural::fit(&table, &output, &settings)
         }
     }

@@ -24,6 +24,8 @@ pub struct FitSettings {
     pub width: usize,
     pub batch: usize,
     pub seed: u64,
+    /// Print the loss every 500 steps and the result.
+    pub progress: bool,
 }
 
 #[derive(Module, Debug)]
@@ -140,19 +142,21 @@ pub fn fit(table_path: &Path, output: &Path, settings: &FitSettings) -> anyhow::
         let grads = GradientsParams::from_grads(loss.backward(), &net);
         let lr = 5e-3 * 0.1f64.powf(step as f64 / settings.steps as f64);
         net = optimizer.step(lr, net, grads);
-        if (step + 1) % 500 == 0 || step + 1 == settings.steps {
+        if settings.progress && ((step + 1) % 500 == 0 || step + 1 == settings.steps) {
             println!("step {:>6}/{}  loss {last_loss:.3e}", step + 1, settings.steps);
         }
     }
     let fitted = net.export()?;
     let (relative, log) = errors(&fitted, &held_out);
     fitted.write(output, &table_path.display().to_string()).with_context(|| format!("writing {}", output.display()))?;
-    println!(
-        "fitted {} parameters to {} in {:.1} s: held-out relative RMS error {relative:.4}, log-cosine RMS {log:.4} (final loss {last_loss:.3e}); wrote {}",
-        fitted.parameters(),
-        table_path.display(),
-        started.elapsed().as_secs_f64(),
-        output.display()
-    );
+    if settings.progress {
+        println!(
+            "fitted {} parameters to {} in {:.1} s: held-out relative RMS error {relative:.4}, log-cosine RMS {log:.4} (final loss {last_loss:.3e}); wrote {}",
+            fitted.parameters(),
+            table_path.display(),
+            started.elapsed().as_secs_f64(),
+            output.display()
+        );
+    }
     Ok(())
 }

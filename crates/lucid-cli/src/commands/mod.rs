@@ -2,7 +2,7 @@
 
 mod bench;
 mod brdf;
-mod brdf_neural;
+pub(crate) mod brdf_neural;
 mod convert;
 pub mod demo;
 mod envmap;

@@ -107,6 +107,7 @@ fn materials() -> Vec<(&'static str, &'static str, String)> {
             "type = \"svbrdf\"\nbase_color = { procedural = \"tiles\" }\nroughness = { procedural = \"tiles\" }\nmetallic = { procedural = \"tiles\" }\nnormal = { procedural = \"tiles\" }".into(),
         ),
         ("measured (MERL)", "type = \"measured\"\nfile = \"ggx.binary\"".into()),
+        ("neural", "type = \"neural\"\nfile = \"ggx.json\"".into()),
         (
             "poulin_fournier",
             "type = \"poulin_fournier\"\nkd = [0.1, 0.1, 0.1]\nks = [0.85, 0.8, 0.7]\nd = 2.2\nh = 0.1\nsigma_x = 0.05\nsigma_y = 0.3".into(),
@@ -136,6 +137,16 @@ pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
     let ball = reference.scene.materials.iter().find(|m| matches!(m, lucid_trace::Material::Conductor { .. }));
     let bsdf = ball.context("the reference sphere")?.bsdf(glam::Vec2::ZERO);
     MerlTable::from_fn(|wo, wi| bsdf.eval(wo, wi)).write(&dir.path().join("ggx.binary"))?;
+    // The neural row fits that table briefly: its time per sample does not depend on the fit.
+    let settings = crate::commands::brdf_neural::FitSettings {
+        steps: 300,
+        layers: 2,
+        width: 21,
+        batch: 4096,
+        seed: 0,
+        progress: false,
+    };
+    crate::commands::brdf_neural::fit(&dir.path().join("ggx.binary"), &dir.path().join("ggx.json"), &settings)?;
 
     let list = materials();
     let scenes: Vec<(&str, lucid_trace::LoadedScene)> = list
