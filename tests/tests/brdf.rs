@@ -55,47 +55,8 @@ fn tabulate_writes_a_table_that_pca_reconstructs() {
 
 /// A sphere of material `ball` (its lines) on a checkered floor, the measured test's view.
 fn sphere_scene(ball: &str) -> String {
-    format!(
-        r#"
-[camera]
-position = [0.0, -3.0, 1.2]
-look_at = [0.0, 0.0, 0.3]
-up = [0.0, 0.0, 1.0]
-fov = 40.0
-width = 96
-height = 64
-
-[integrator]
-max_depth = 4
-
-[materials.floor]
-type = "lambertian"
-albedo = {{ a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }}
-
-[materials.ball]
-{ball}
-
-[[shapes]]
-type = "quad"
-material = "floor"
-scale = [3.0, 3.0, 1.0]
-
-[[shapes]]
-type = "sphere"
-material = "ball"
-radius = 0.6
-translate = [0.0, 0.0, 0.6]
-
-[[lights]]
-type = "directional"
-direction = [-0.4, -0.6, 0.7]
-irradiance = [3.0, 2.9, 2.7]
-
-[[lights]]
-type = "environment"
-radiance = [0.35, 0.42, 0.55]
-"#
-    )
+    let scene = lucid_trace::sample_scenes::object_on_floor(lucid_trace::sample_scenes::SPHERE, 96, 64, 4);
+    format!("{scene}\n[materials.ball]\n{ball}\n")
 }
 
 #[test]

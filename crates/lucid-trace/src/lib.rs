@@ -17,6 +17,7 @@ pub mod medium;
 pub mod packet;
 pub mod pssmlt;
 pub mod render;
+pub mod sample_scenes;
 pub mod sampling;
 pub mod scene;
 pub mod scene_file;

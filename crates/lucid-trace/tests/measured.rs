@@ -6,49 +6,16 @@ use lucid_trace::bsdf::measured::MerlTable;
 use lucid_trace::bsdf::{Bsdf, GgxDistribution, MicrofacetConductor};
 use lucid_trace::{RenderSettings, parse_scene, render};
 
-const SCENE: &str = r#"
-[camera]
-position = [0.0, -3.0, 1.2]
-look_at = [0.0, 0.0, 0.3]
-up = [0.0, 0.0, 1.0]
-fov = 40.0
-width = 48
-height = 32
-
-[integrator]
-max_depth = 4
-
-[materials.floor]
-type = "lambertian"
-albedo = { a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }
-
-[[shapes]]
-type = "quad"
-material = "floor"
-scale = [3.0, 3.0, 1.0]
-
-[[shapes]]
-type = "sphere"
-material = "ball"
-radius = 0.6
-translate = [0.0, 0.0, 0.6]
-
-[[lights]]
-type = "directional"
-direction = [-0.4, -0.6, 0.7]
-irradiance = [3.0, 2.9, 2.7]
-
-[[lights]]
-type = "environment"
-radiance = [0.35, 0.42, 0.55]
-"#;
+fn scene() -> String {
+    lucid_trace::sample_scenes::object_on_floor(lucid_trace::sample_scenes::SPHERE, 48, 32, 4)
+}
 
 fn grey(p: [f32; 4]) -> f64 {
     ((p[0] + p[1] + p[2]) / 3.0) as f64
 }
 
 fn render_with(ball: &str, dir: &std::path::Path) -> Image {
-    let text = format!("{SCENE}\n[materials.ball]\n{ball}\n");
+    let text = format!("{}\n[materials.ball]\n{ball}\n", scene());
     let loaded = parse_scene(&text, &dir.join("scene.toml")).unwrap();
     let settings = RenderSettings { spp: 256, seed: 4, ..loaded.settings };
     render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
@@ -90,7 +57,7 @@ fn a_table_of_a_ggx_metal_renders_the_metal() {
     assert!(worst < 0.03, "a block differs by {worst}");
 
     // A missing table is an error naming the material's key and the file.
-    let text = format!("{SCENE}\n[materials.ball]\ntype = \"measured\"\nfile = \"nothere.binary\"\n");
+    let text = format!("{}\n[materials.ball]\ntype = \"measured\"\nfile = \"nothere.binary\"\n", scene());
     let err = parse_scene(&text, &dir.path().join("scene.toml")).unwrap_err().to_string();
     assert!(err.contains("materials.ball.file") && err.contains("nothere.binary"), "{err}");
 }

@@ -96,16 +96,23 @@ impl PoulinFournier {
         0.5 * o.length * i.length * value
     }
 
-    /// `∫ D(h_l(u))·G(ωo_l(u), ωi_l(u)) du` over `[u0, u1]`.
-    fn specular_integral(&self, wo: Vec3, wi: Vec3, h: Vec3, u0: f32, u1: f32) -> f32 {
-        let (o, i, hs) = (Section::of(wo), Section::of(wi), Section::of(h));
+    /// The half vector's cross-section and the `A`, `B` of `D = 1/(π αx αy (A + B sin²u′)²)`
+    /// along the groove (`u′ = u + ψh`); `None` for a half vector along the grooves.
+    fn along_groove(&self, h: Vec3) -> Option<(Section, f32, f32)> {
+        let hs = Section::of(h);
         if hs.length < 1e-6 {
-            return 0.0;
+            return None;
         }
         let (ax, ay) = (self.distribution.alpha_x, self.distribution.alpha_y);
         let r2 = hs.length * hs.length;
-        let a = (h.x / ax).powi(2) + r2;
-        let b = r2 * (1.0 / (ay * ay) - 1.0);
+        Some((hs, (h.x / ax).powi(2) + r2, r2 * (1.0 / (ay * ay) - 1.0)))
+    }
+
+    /// `∫ D(h_l(u))·G(ωo_l(u), ωi_l(u)) du` over `[u0, u1]`.
+    fn specular_integral(&self, wo: Vec3, wi: Vec3, h: Vec3, u0: f32, u1: f32) -> f32 {
+        let Some((hs, a, b)) = self.along_groove(h) else { return 0.0 };
+        let (o, i) = (Section::of(wo), Section::of(wi));
+        let (ax, ay) = (self.distribution.alpha_x, self.distribution.alpha_y);
         let local = |w: Vec3, s: Section, u: f32| {
             let (sin, cos) = (u + s.angle).sin_cos();
             Vec3::new(w.x, s.length * sin, s.length * cos)
@@ -144,14 +151,8 @@ impl PoulinFournier {
 
     /// `∫ D(h_l(u))·cos θm du` over the whole groove (the density of sampling a groove facet).
     fn groove_normal_density(&self, h: Vec3) -> f32 {
-        let hs = Section::of(h);
-        if hs.length < 1e-6 {
-            return 0.0;
-        }
+        let Some((hs, a, b)) = self.along_groove(h) else { return 0.0 };
         let (ax, ay) = (self.distribution.alpha_x, self.distribution.alpha_y);
-        let r2 = hs.length * hs.length;
-        let a = (h.x / ax).powi(2) + r2;
-        let b = r2 * (1.0 / (ay * ay) - 1.0);
         let s0 = (-self.u_max + hs.angle).clamp(-FRAC_PI_2, FRAC_PI_2).sin();
         let s1 = (self.u_max + hs.angle).clamp(-FRAC_PI_2, FRAC_PI_2).sin();
         // Antiderivative of 1/(A + B s²)².

@@ -11,90 +11,25 @@ use lucid_trace::bsdf::measured::MerlTable;
 use lucid_trace::{RenderSettings, parse_scene, render};
 use serde_json::{Value, json};
 
-const SCENE: &str = r#"
-[camera]
-position = [0.0, -3.2, 1.3]
-look_at = [0.0, 0.0, 0.5]
-up = [0.0, 0.0, 1.0]
-fov = 45.0
-width = 128
-height = 96
+/// The sphere on the floor.
+fn sphere_scene() -> String {
+    lucid_trace::sample_scenes::object_on_floor(lucid_trace::sample_scenes::SPHERE, WIDTH, HEIGHT, 8)
+}
 
-[integrator]
-max_depth = 8
-
-[materials.floor]
-type = "lambertian"
-albedo = { a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }
-
-[[shapes]]
-type = "quad"
-material = "floor"
-scale = [3.0, 3.0, 1.0]
-
-[[shapes]]
-type = "sphere"
-material = "ball"
-radius = 0.6
-translate = [0.0, 0.0, 0.6]
-
-[[lights]]
-type = "directional"
-direction = [-0.4, -0.6, 0.7]
-irradiance = [3.0, 2.9, 2.7]
-
-[[lights]]
-type = "environment"
-radiance = [0.35, 0.42, 0.55]
-"#;
+const WIDTH: u32 = 128;
+const HEIGHT: u32 = 96;
 
 /// The same view of a hairy ball (3000 fibres of 8 segments) with the fibres' material
 /// changing: fibres are timed against fibres of the GGX conductor.
-const HAIR_SCENE: &str = r#"
-[camera]
-position = [0.0, -3.2, 1.3]
-look_at = [0.0, 0.0, 0.5]
-up = [0.0, 0.0, 1.0]
-fov = 45.0
-width = 128
-height = 96
-
-[integrator]
-max_depth = 8
-
-[materials.floor]
-type = "lambertian"
-albedo = { a = [0.7, 0.7, 0.7], b = [0.2, 0.2, 0.2], scale = 6.0 }
-
-[[shapes]]
-type = "quad"
-material = "floor"
-scale = [3.0, 3.0, 1.0]
-
-[[shapes]]
-type = "hair"
-groom = "ball"
-material = "ball"
-fibres = 3000
-length = 0.5
-radius = 0.008
-scale = 0.6
-translate = [0.0, 0.0, 0.6]
-
-[[lights]]
-type = "directional"
-direction = [-0.4, -0.6, 0.7]
-irradiance = [3.0, 2.9, 2.7]
-
-[[lights]]
-type = "environment"
-radiance = [0.35, 0.42, 0.55]
-"#;
+fn hair_scene() -> String {
+    let ball = "type = \"hair\"\ngroom = \"ball\"\nmaterial = \"ball\"\nfibres = 3000\nlength = 0.5\nradius = 0.008\nscale = 0.6\ntranslate = [0.0, 0.0, 0.6]";
+    lucid_trace::sample_scenes::object_on_floor(ball, WIDTH, HEIGHT, 8)
+}
 
 const CONDUCTOR: &str = "type = \"conductor\"\neta = [0.2, 0.9, 1.1]\nk = [3.9, 2.4, 2.2]\nroughness = 0.4";
 
 /// The materials measured, by name and scene: each scene's reference first.
-fn materials() -> Vec<(&'static str, &'static str, String)> {
+fn materials() -> Vec<(&'static str, String, String)> {
     let sphere = [
         ("conductor (GGX)", CONDUCTOR.into()),
         (
@@ -125,15 +60,16 @@ fn materials() -> Vec<(&'static str, &'static str, String)> {
             "type = \"kajiya_kay\"\nkd = [0.4, 0.25, 0.15]\nks = [0.3, 0.3, 0.3]\nexponent = 40".into(),
         ),
     ];
-    let sphere = sphere.into_iter().map(|(name, m)| (name, SCENE, m));
-    sphere.chain(fibres.into_iter().map(|(name, m)| (name, HAIR_SCENE, m))).collect()
+    let sphere = sphere.into_iter().map(|(name, m)| (name, sphere_scene(), m));
+    sphere.chain(fibres.into_iter().map(|(name, m)| (name, hair_scene(), m))).collect()
 }
 
 /// Runs the benchmark: `rounds` alternating renders at `spp`; prints and returns the table.
 pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
     let dir = tempfile::tempdir().context("creating a temporary folder for the MERL table")?;
     // The measured sphere is the reference conductor, tabulated.
-    let reference = parse_scene(&format!("{SCENE}\n[materials.ball]\n{CONDUCTOR}\n"), &dir.path().join("s.toml"))?;
+    let reference =
+        parse_scene(&format!("{}\n[materials.ball]\n{CONDUCTOR}\n", sphere_scene()), &dir.path().join("s.toml"))?;
     let ball = reference.scene.materials.iter().find(|m| matches!(m, lucid_trace::Material::Conductor { .. }));
     let bsdf = ball.context("the reference sphere")?.bsdf(glam::Vec2::ZERO);
     MerlTable::from_fn(|wo, wi| bsdf.eval(wo, wi)).write(&dir.path().join("ggx.binary"))?;
@@ -176,7 +112,7 @@ pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
         v[v.len() / 2]
     };
     let medians: Vec<f64> = times.iter_mut().map(median).collect();
-    let samples = 128.0 * 96.0 * spp as f64;
+    let samples = (WIDTH * HEIGHT) as f64 * spp as f64;
     println!("{:<26} {:>14} {:>12} {:>12}", "material", "µs per sample", "vs GGX", "image mean");
     let mut rows = Vec::new();
     for (k, (name, _)) in scenes.iter().enumerate() {
@@ -187,8 +123,8 @@ pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
     }
     Ok(json!({
         "benchmark": "materials",
-        "width": 128,
-        "height": 96,
+        "width": WIDTH,
+        "height": HEIGHT,
         "spp": spp,
         "rounds": rounds,
         "threads": rayon::current_num_threads(),
