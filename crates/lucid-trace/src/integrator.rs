@@ -218,20 +218,12 @@ impl PathTracer {
             let wo = frame.to_local(-ray.direction);
 
             // Next-event estimation.
-            if !bsdf.is_specular()
-                && let Some((light_pdf, ls)) = self.pick_light(scene, hit.point, light_pick, rng)
-            {
-                let wi = frame.to_local(ls.wi);
-                let f = bsdf.eval(wo, wi);
-                if f != Vec3::ZERO {
-                    let shadow_medium = medium_across(medium, primitive, ls.wi, &hit);
-                    let tr = self.transmittance(scene, spawn(&hit, ls.wi), ls.distance, shadow_medium);
-                    out.rays += 1;
-                    if tr != Vec3::ZERO {
-                        let weight = self.light_sample_weight(ls.delta, light_pdf, bsdf.pdf(wo, wi));
-                        out.radiance += beta * f * wi.z.abs() * tr * ls.li * weight / light_pdf;
-                    }
-                }
+            if !bsdf.is_specular() {
+                let shadow_medium = |wi| medium_across(medium, primitive, wi, &hit);
+                let (light, rays) =
+                    self.direct_light(scene, &hit, &bsdf, frame, wo, beta, shadow_medium, light_pick, rng);
+                out.radiance += light;
+                out.rays += rays;
             }
 
             // Continue the path by sampling the BSDF.
@@ -281,6 +273,36 @@ impl PathTracer {
         out
     }
 
+    /// Next-event estimation at a surface point seen from `wo` (local) by a path of weight
+    /// `beta`: one light sampled, its MIS-weighted `β·f·|cos θi|·Tr·Li / pdf` with shadow rays
+    /// through `shadow_medium(direction)`, and the shadow rays traced.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_light(
+        &self,
+        scene: &Scene,
+        hit: &Intersection,
+        bsdf: &impl Bsdf,
+        frame: Frame,
+        wo: Vec3,
+        beta: Vec3,
+        shadow_medium: impl Fn(Vec3) -> Option<u32>,
+        light_pick: f32,
+        rng: &mut impl UniformSource,
+    ) -> (Vec3, u32) {
+        let Some((light_pdf, ls)) = self.pick_light(scene, hit.point, light_pick, rng) else { return (Vec3::ZERO, 0) };
+        let wi = frame.to_local(ls.wi);
+        let f = bsdf.eval(wo, wi);
+        if f == Vec3::ZERO {
+            return (Vec3::ZERO, 0);
+        }
+        let tr = self.transmittance(scene, spawn(hit, ls.wi), ls.distance, shadow_medium(ls.wi));
+        if tr == Vec3::ZERO {
+            return (Vec3::ZERO, 1);
+        }
+        let weight = self.light_sample_weight(ls.delta, light_pdf, bsdf.pdf(wo, wi));
+        (beta * f * wi.z.abs() * tr * ls.li * weight / light_pdf, 1)
+    }
+
     /// The subsurface step after light refracted into `entry`: samples the exit point (its
     /// weight into `beta`), lights it by next-event estimation into `out`, and samples the
     /// exit direction: the ray to continue with, the exit point and the direction's density.
@@ -303,20 +325,12 @@ impl PathTracer {
             return None;
         }
         let hit = exit.hit;
-        let bsdf = crate::subsurface::SubsurfaceExitBsdf::new(profile.eta);
+        let bsdf = profile.exit;
         let frame = Frame::new(hit.shading_normal, hit.tangent);
-        if let Some((light_pdf, ls)) = self.pick_light(scene, hit.point, light_pick, rng) {
-            let wi = frame.to_local(ls.wi);
-            let f = bsdf.eval(Vec3::Z, wi);
-            if f != Vec3::ZERO {
-                let tr = self.transmittance(scene, spawn(&hit, ls.wi), ls.distance, scene.global_medium);
-                out.rays += 1;
-                if tr != Vec3::ZERO {
-                    let weight = self.light_sample_weight(ls.delta, light_pdf, bsdf.pdf(Vec3::Z, wi));
-                    out.radiance += *beta * f * wi.z * tr * ls.li * weight / light_pdf;
-                }
-            }
-        }
+        let global = |_| scene.global_medium;
+        let (light, rays) = self.direct_light(scene, &hit, &bsdf, frame, Vec3::Z, *beta, global, light_pick, rng);
+        out.radiance += light;
+        out.rays += rays;
         let s = bsdf.sample(Vec3::Z, rng.uniform2(), rng.uniform())?;
         *beta *= s.f * s.wi.z / s.pdf;
         Some((spawn(&hit, frame.to_world(s.wi).normalize()), hit.point, s.pdf))

@@ -55,17 +55,13 @@ impl HairModel {
     /// The absorption that gives a fibre of azimuthal roughness `beta_n` the multiply
     /// scattered colour `colour` (Chiang et al. 2016).
     pub fn sigma_a_from_colour(colour: Vec3, beta_n: f32) -> Vec3 {
-        let b = beta_n;
-        let denominator =
-            5.969 - 0.215 * b + 2.532 * b.powi(2) - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5);
+        let denominator = chiang_denominator(beta_n);
         colour.clamp(Vec3::splat(1e-4), Vec3::ONE).to_array().map(|c| (c.ln() / denominator).powi(2)).into()
     }
 
     /// The colour whose [`HairModel::sigma_a_from_colour`] is `sigma_a` (its inverse).
     pub fn colour_of(sigma_a: Vec3, beta_n: f32) -> Vec3 {
-        let b = beta_n;
-        let denominator =
-            5.969 - 0.215 * b + 2.532 * b.powi(2) - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5);
+        let denominator = chiang_denominator(beta_n);
         sigma_a.max(Vec3::ZERO).to_array().map(|s| (-s.sqrt() * denominator).exp()).into()
     }
 
@@ -85,6 +81,12 @@ impl HairModel {
         };
         (sin, cos.abs())
     }
+}
+
+/// Chiang et al.'s polynomial in the azimuthal roughness relating colour and absorption:
+/// `σa = (ln c / P(βn))²`.
+fn chiang_denominator(b: f32) -> f32 {
+    5.969 - 0.215 * b + 2.532 * b.powi(2) - 10.73 * b.powi(3) + 5.574 * b.powi(4) + 0.245 * b.powi(5)
 }
 
 /// What one evaluation needs about `ωo` and the hit offset.
@@ -171,10 +173,16 @@ impl HairBsdf {
         self.lobes(&o, wi, &Self::lobe_probabilities(&o))
     }
 
+    /// A direction for `ωo` (the surface's `sample` reuses its own worked-out `ωo`).
+    #[cfg(test)]
     fn sample_direction(&self, wo: Vec3, u: Vec2, uc: f32) -> Vec3 {
-        let m = &self.model;
         let o = self.outgoing(wo);
-        let probabilities = Self::lobe_probabilities(&o);
+        self.sample_from(&o, &Self::lobe_probabilities(&o), u, uc)
+    }
+
+    /// [`HairBsdf::sample_direction`] for worked-out `ωo` and lobe probabilities.
+    fn sample_from(&self, o: &Outgoing, probabilities: &[f32; P_MAX + 1], u: Vec2, uc: f32) -> Vec3 {
+        let m = &self.model;
         // Pick the lobe with `uc`, then reuse what is left of it for the azimuth.
         let (mut p, mut start) = (P_MAX, 0.0);
         for (k, &q) in probabilities.iter().enumerate() {
@@ -186,13 +194,7 @@ impl HairBsdf {
         }
         let u_phi = ((uc - start) / probabilities[p].max(1e-8)).clamp(0.0, 1.0 - f32::EPSILON);
         let (sin_op, cos_op) = m.tilted(p, o.sin_o, o.cos_o);
-        // d'Eon's exact sampling of the longitudinal lobe.
-        let v = m.v[p];
-        let u0 = u.x.max(1e-5);
-        let cos_theta = (1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln()).clamp(-1.0, 1.0);
-        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-        let cos_phi = (TAU * u.y).cos();
-        let sin_i = (-cos_theta * sin_op + sin_theta * cos_phi * cos_op).clamp(-1.0, 1.0);
+        let sin_i = sample_longitudinal(m.v[p], sin_op, cos_op, u);
         let cos_i = (1.0 - sin_i * sin_i).max(0.0).sqrt();
         let dphi = if p < P_MAX {
             exit_azimuth(p, o.gamma_o, o.gamma_t) + sample_trimmed_logistic(u_phi, m.s)
@@ -229,6 +231,15 @@ fn longitudinal(cos_i: f32, cos_o: f32, sin_i: f32, sin_o: f32, v: f32) -> f32 {
     } else {
         (-b).exp() * i0(a) / ((1.0 / v).sinh() * 2.0 * v)
     }
+}
+
+/// `sin θi` drawn from [`longitudinal`] of variance `v` about the mirror elevation of
+/// `(sin θo, cos θo)`, exactly (d'Eon et al.'s sampling of the von Mises–Fisher lobe).
+fn sample_longitudinal(v: f32, sin_o: f32, cos_o: f32, u: Vec2) -> f32 {
+    let u0 = u.x.max(1e-5);
+    let cos_theta = (1.0 + v * (u0 + (1.0 - u0) * (-2.0 / v).exp()).ln()).clamp(-1.0, 1.0);
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    (-cos_theta * sin_o + sin_theta * (TAU * u.y).cos() * cos_o).clamp(-1.0, 1.0)
 }
 
 /// The azimuth, relative to `ωo`'s, at which path `p` leaves a smooth cylinder.
@@ -291,10 +302,14 @@ impl Bsdf for HairSurface {
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        // `ωo`'s angles, attenuations and lobe probabilities serve the direction, its density
+        // and its value.
         let fibre = self.at(wo);
-        let wi = fibre.sample_direction(wo, u, uc);
-        let pdf = fibre.density(wo, wi);
-        let f = per_cosine(fibre.scattering(wo, wi), wi);
+        let o = fibre.outgoing(wo);
+        let probabilities = HairBsdf::lobe_probabilities(&o);
+        let wi = fibre.sample_from(&o, &probabilities, u, uc);
+        let pdf = fibre.lobes(&o, wi, &probabilities);
+        let f = per_cosine(fibre.lobes(&o, wi, &o.attenuation), wi);
         (pdf > 0.0 && wi.z != 0.0).then_some(BsdfSample {
             wi,
             f,
@@ -361,11 +376,10 @@ impl Bsdf for KajiyaKay {
             (d.x, TAU * (uc / pd).min(1.0 - f32::EPSILON))
         } else {
             let (sin_o, cos_o) = Self::angles(wo);
-            let u0 = u.x.max(1e-5);
-            let cos_theta = (1.0 + self.v * (u0 + (1.0 - u0) * (-2.0 / self.v).exp()).ln()).clamp(-1.0, 1.0);
-            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-            let sin_i = -cos_theta * sin_o + sin_theta * (TAU * u.y).cos() * cos_o;
-            (sin_i.clamp(-1.0, 1.0), TAU * ((uc - pd) / (1.0 - pd)).clamp(0.0, 1.0 - f32::EPSILON))
+            (
+                sample_longitudinal(self.v, sin_o, cos_o, u),
+                TAU * ((uc - pd) / (1.0 - pd)).clamp(0.0, 1.0 - f32::EPSILON),
+            )
         };
         let cos_i = (1.0 - sin_i * sin_i).max(0.0).sqrt();
         let wi = Vec3::new(sin_i, cos_i * phi.cos(), cos_i * phi.sin());

@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use super::{Bsdf, BsdfSample, same_hemisphere};
+use super::{Bsdf, BsdfSample, same_hemisphere, to_upper};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, orthonormal_basis};
 
 /// A reflection lobe in the local shading frame (both directions above the surface).
@@ -70,12 +70,6 @@ impl<L: Lobe> Bsdf for DiffuseAndLobe<L> {
         let p = self.lobe_probability();
         p * self.lobe.pdf(wo, wi) + (1.0 - p) * cosine_hemisphere_pdf(wi.z)
     }
-}
-
-/// Both directions mirrored to the upper hemisphere (the lobes are written for it; the
-/// surface is treated as two-sided).
-fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) }
 }
 
 /// A direction around unit `axis` with density `(n+1)/2π · cos^n` of the angle to it.

@@ -15,7 +15,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 
 use super::half_vector::{HalfVectorDistribution, normal_incidence_albedo};
-use super::{Bsdf, BsdfSample, reflect};
+use super::{Bsdf, BsdfSample, reflect, upper_pair};
 
 /// Table resolution in θh.
 pub const THETA_H: usize = 90;
@@ -212,20 +212,8 @@ impl MerlTable {
     /// The table in `path`, read once per process and kept (17 MB per file): scenes loaded
     /// again, by benchmarks or the viewer, share it.
     pub fn load_shared(path: &Path) -> Result<&'static MerlTable, MerlError> {
-        use std::collections::HashMap;
-        use std::sync::{Mutex, OnceLock};
-        type Key = (std::path::PathBuf, u64, Option<std::time::SystemTime>);
-        static TABLES: OnceLock<Mutex<HashMap<Key, &'static MerlTable>>> = OnceLock::new();
-        let meta = std::fs::metadata(path).map_err(|source| MerlError::Io { path: path.to_path_buf(), source })?;
-        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
-        let key = (canonical, meta.len(), meta.modified().ok());
-        let tables = TABLES.get_or_init(Default::default);
-        if let Some(t) = tables.lock().expect("table cache").get(&key) {
-            return Ok(t);
-        }
-        let table = Self::read(path)?.leak();
-        tables.lock().expect("table cache").insert(key, table);
-        Ok(table)
+        let io = |source| MerlError::Io { path: path.to_path_buf(), source };
+        super::shared_file::load_shared(path, io, Self::read)
     }
 
     /// The value at `(θh, θd, φd)`, trilinear between cell centres.
@@ -261,13 +249,6 @@ pub struct MeasuredBrdf {
 }
 
 impl MeasuredBrdf {
-    fn upper(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        if wo.z * wi.z <= 0.0 {
-            return None;
-        }
-        Some(if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) })
-    }
-
     fn upper_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.table.half_vectors.direction_pdf(wo, wi)
     }
@@ -275,7 +256,7 @@ impl MeasuredBrdf {
 
 impl Bsdf for MeasuredBrdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        let Some((wo, wi)) = Self::upper(wo, wi) else { return Vec3::ZERO };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return Vec3::ZERO };
         let (h, d, p) = half_diff(wo, wi);
         self.table.lookup(h, d, p)
     }
@@ -295,7 +276,7 @@ impl Bsdf for MeasuredBrdf {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wo, wi)) = Self::upper(wo, wi) else { return 0.0 };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return 0.0 };
         self.upper_pdf(wo, wi)
     }
 }

@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 use super::microfacet::GgxDistribution;
-use super::{Bsdf, BsdfSample, reflect};
+use super::{Bsdf, BsdfSample, reflect, upper_pair};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, orthonormal_basis};
 
 /// Specular reflectance at normal incidence of a dielectric (index 1.5).
@@ -97,20 +97,11 @@ impl MetallicRoughness {
         let specular = if wm == Vec3::ZERO { 0.0 } else { self.ggx().visible_d(wo, wm) / (4.0 * wo.dot(wm).abs()) };
         ps * specular + (1.0 - ps) * cosine_hemisphere_pdf(wi.z)
     }
-
-    /// Both directions mirrored above the shading normal (two-sided), or `None` if they lie on
-    /// two sides of it.
-    fn upper(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-        if wo.z * wi.z <= 0.0 {
-            return None;
-        }
-        Some(if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) })
-    }
 }
 
 impl Bsdf for MetallicRoughness {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        let Some((wo, wi)) = Self::upper(wo, wi) else { return Vec3::ZERO };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return Vec3::ZERO };
         let (to, ti) = (self.tilted(wo), self.tilted(wi));
         if to.z <= 0.0 || ti.z <= 0.0 {
             return Vec3::ZERO;
@@ -144,7 +135,7 @@ impl Bsdf for MetallicRoughness {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wo, wi)) = Self::upper(wo, wi) else { return 0.0 };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return 0.0 };
         self.tilted_pdf(self.tilted(wo), self.tilted(wi))
     }
 }

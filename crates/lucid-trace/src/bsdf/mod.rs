@@ -27,6 +27,7 @@ pub mod neural;
 pub mod phong;
 pub mod plastic;
 pub mod poulin_fournier;
+mod shared_file;
 pub mod ward;
 
 use glam::{Vec2, Vec3};
@@ -76,6 +77,19 @@ pub trait Bsdf {
 #[inline]
 pub fn same_hemisphere(a: Vec3, b: Vec3) -> bool {
     a.z * b.z > 0.0
+}
+
+/// Both directions mirrored above the surface when `wo` is below it (two-sided surfaces whose
+/// lobes are written for the upper hemisphere).
+#[inline]
+pub(crate) fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+    if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) }
+}
+
+/// [`to_upper`] of a pair on one side of the surface; `None` for a pair across it.
+#[inline]
+pub(crate) fn upper_pair(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    same_hemisphere(wo, wi).then(|| to_upper(wo, wi))
 }
 
 /// Mirror reflection of `w` about the local normal +Z.

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::half_vector::{BANDS, HalfVectorDistribution, band_edge, normal_incidence_albedo};
 use super::measured::{from_half_diff, half_diff};
-use super::{Bsdf, BsdfSample};
+use super::{Bsdf, BsdfSample, upper_pair};
 
 /// Inputs of the encoding.
 pub const INPUTS: usize = 5;
@@ -244,20 +244,8 @@ impl NeuralBrdfModel {
 
     /// The model of `path`, read once per process and kept (BSDFs borrow it).
     pub fn load_shared(path: &Path) -> Result<&'static NeuralBrdfModel, NeuralBrdfError> {
-        use std::collections::HashMap;
-        use std::sync::{Mutex, OnceLock};
-        type Key = (PathBuf, u64, Option<std::time::SystemTime>);
-        static MODELS: OnceLock<Mutex<HashMap<Key, &'static NeuralBrdfModel>>> = OnceLock::new();
-        let meta =
-            std::fs::metadata(path).map_err(|source| NeuralBrdfError::Io { path: path.to_path_buf(), source })?;
-        let key = (path.canonicalize().unwrap_or_else(|_| path.to_path_buf()), meta.len(), meta.modified().ok());
-        let models = MODELS.get_or_init(Default::default);
-        if let Some(m) = models.lock().expect("model cache").get(&key) {
-            return Ok(m);
-        }
-        let model: &'static NeuralBrdfModel = Box::leak(Box::new(Self::new(NeuralBrdfNet::read(path)?)));
-        models.lock().expect("model cache").insert(key, model);
-        Ok(model)
+        let io = |source| NeuralBrdfError::Io { path: path.to_path_buf(), source };
+        super::shared_file::load_shared(path, io, |p| NeuralBrdfNet::read(p).map(Self::new))
     }
 }
 
@@ -268,16 +256,9 @@ pub struct NeuralBrdf {
     pub model: &'static NeuralBrdfModel,
 }
 
-fn upper(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
-    if wo.z * wi.z <= 0.0 {
-        return None;
-    }
-    Some(if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) })
-}
-
 impl Bsdf for NeuralBrdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        let Some((wo, wi)) = upper(wo, wi) else { return Vec3::ZERO };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return Vec3::ZERO };
         self.model.net.forward(&encode(wo, wi))
     }
 
@@ -295,7 +276,7 @@ impl Bsdf for NeuralBrdf {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wo, wi)) = upper(wo, wi) else { return 0.0 };
+        let Some((wo, wi)) = upper_pair(wo, wi) else { return 0.0 };
         self.model.half_vectors.direction_pdf(wo, wi)
     }
 }

@@ -28,7 +28,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, PI};
 
 use super::microfacet::GgxDistribution;
-use super::{Bsdf, BsdfSample, reflect, same_hemisphere};
+use super::{Bsdf, BsdfSample, reflect, same_hemisphere, to_upper};
 use crate::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (8 points).
@@ -109,9 +109,9 @@ impl PoulinFournier {
     }
 
     /// `∫ D(h_l(u))·G(ωo_l(u), ωi_l(u)) du` over `[u0, u1]`.
-    fn specular_integral(&self, wo: Vec3, wi: Vec3, h: Vec3, u0: f32, u1: f32) -> f32 {
+    #[allow(clippy::too_many_arguments)] // the caller's cross-sections, not worked out again
+    fn specular_integral(&self, wo: Vec3, wi: Vec3, o: Section, i: Section, h: Vec3, u0: f32, u1: f32) -> f32 {
         let Some((hs, a, b)) = self.along_groove(h) else { return 0.0 };
-        let (o, i) = (Section::of(wo), Section::of(wi));
         let (ax, ay) = (self.distribution.alpha_x, self.distribution.alpha_y);
         let local = |w: Vec3, s: Section, u: f32| {
             let (sin, cos) = (u + s.angle).sin_cos();
@@ -187,7 +187,7 @@ impl PoulinFournier {
         let mut specular = self.flat * 0.25 * self.distribution.d(h) * self.distribution.g(wo, wi);
         if u1 > u0 {
             diffuse += Self::cosine_product_integral(o, i, u0, u1);
-            specular += 0.25 * self.specular_integral(wo, wi, h, u0, u1);
+            specular += 0.25 * self.specular_integral(wo, wi, o, i, h, u0, u1);
         }
         (self.kd * (diffuse * FRAC_1_PI) + self.ks * specular) / (self.period * cos)
     }
@@ -237,11 +237,6 @@ fn sample_ggx_normal(d: &GgxDistribution, u: Vec2) -> Vec3 {
     let cos_theta = 1.0 / (1.0 + tan2).sqrt();
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta)
-}
-
-/// Both directions mirrored to the upper hemisphere (the surface is two-sided).
-fn to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) }
 }
 
 impl Bsdf for PoulinFournier {

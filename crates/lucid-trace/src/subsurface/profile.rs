@@ -30,6 +30,13 @@ impl Coefficients {
     }
 }
 
+/// The dipole's boundary term `A = (1 + Fdr)/(1 − Fdr)`, from the internal diffuse Fresnel
+/// reflectance `Fdr` (Egan and Hilgeman's fit).
+fn boundary_mismatch(eta: f32) -> f32 {
+    let fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
+    (1.0 + fdr) / (1.0 - fdr)
+}
+
 /// The dipole's diffuse reflectance at distance `r` from the entry point (Jensen et al. 2001):
 /// a real source at depth `z_r = 1/σt′` and its mirror image at `z_v = z_r + 4AD` above the
 /// extrapolated boundary, `A = (1 + Fdr)/(1 − Fdr)` from the internal diffuse Fresnel
@@ -41,8 +48,7 @@ pub fn dipole(c: Coefficients, eta: f32, r: f32) -> f32 {
     }
     let albedo = c.sigma_s / sigma_t;
     let sigma_tr = (3.0 * c.sigma_a * sigma_t).sqrt();
-    let fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    let a = (1.0 + fdr) / (1.0 - fdr);
+    let a = boundary_mismatch(eta);
     let z_r = 1.0 / sigma_t;
     let z_v = z_r + 4.0 * a / (3.0 * sigma_t);
     let d_r = (r * r + z_r * z_r).sqrt();
@@ -58,8 +64,7 @@ pub fn dipole_total(c: Coefficients, eta: f32) -> f32 {
         return 0.0;
     }
     let albedo = c.sigma_s / sigma_t;
-    let fdr = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
-    let a = (1.0 + fdr) / (1.0 - fdr);
+    let a = boundary_mismatch(eta);
     let s = (3.0 * (1.0 - albedo)).sqrt();
     0.5 * albedo * (1.0 + (-4.0 / 3.0 * a * s).exp()) * (-s).exp()
 }
@@ -175,13 +180,16 @@ pub struct SubsurfaceProfile {
     pub channels: [ChannelProfile; 3],
     /// Relative index of refraction of the boundary.
     pub eta: f32,
+    /// The direction term at exit points (its normalisation integrates the Fresnel term:
+    /// worked out once here rather than at every exit).
+    pub exit: super::SubsurfaceExitBsdf,
 }
 
 impl SubsurfaceProfile {
     /// Tabulates the profiles of absorption `sigma_a` and reduced scattering `sigma_s`.
     pub fn new(sigma_a: Vec3, sigma_s: Vec3, eta: f32) -> Self {
         let channel = |i: usize| ChannelProfile::new(Coefficients { sigma_a: sigma_a[i], sigma_s: sigma_s[i] }, eta);
-        Self { channels: [channel(0), channel(1), channel(2)], eta }
+        Self { channels: [channel(0), channel(1), channel(2)], eta, exit: super::SubsurfaceExitBsdf::new(eta) }
     }
 
     /// `Sr(r)` per channel.
