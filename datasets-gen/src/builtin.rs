@@ -56,8 +56,21 @@ pub fn load_named_scene(scene: &str) -> Result<LoadedScene, GenError> {
     if path.is_file() {
         return Ok(load_scene(path)?);
     }
+    let (text, path) = named_scene_text(scene)?;
+    Ok(parse_scene(&text, &path)?)
+}
+
+/// A scene's text and the path its relative files resolve against, by file path or by
+/// built-in name.
+pub fn named_scene_text(scene: &str) -> Result<(String, std::path::PathBuf), GenError> {
+    let path = Path::new(scene);
+    if path.is_file() {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| GenError::Scene(lucid_trace::SceneFileError::Io { path: path.to_path_buf(), source }))?;
+        return Ok((text, path.to_path_buf()));
+    }
     match SCENES.iter().find(|(name, _)| *name == scene) {
-        Some((name, text)) => Ok(parse_scene(text, Path::new(&format!("configs/scenes/{name}.toml")))?),
+        Some((name, text)) => Ok((text.to_string(), format!("configs/scenes/{name}.toml").into())),
         None => Err(GenError::UnknownScene { name: scene.to_string() }),
     }
 }

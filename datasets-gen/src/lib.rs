@@ -14,6 +14,7 @@ pub mod lightfield;
 pub mod olat;
 pub mod path_traced;
 pub mod point_cloud;
+pub mod reference_spheres;
 pub mod rig;
 pub mod writer;
 

@@ -13,7 +13,7 @@ fn materials() -> String {
 #[test]
 fn tabulate_writes_a_table_that_pca_reconstructs() {
     let dir = temp_dir();
-    for m in ["lambert", "phong", "ward"] {
+    for m in ["lambert", "phong", "blinn"] {
         lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", m, "-o", &format!("{m}.binary")])
             .success();
     }
@@ -25,7 +25,7 @@ fn tabulate_writes_a_table_that_pca_reconstructs() {
     // Two tables are reconstructed exactly by one component (their centred data has rank 1).
     let run = lucid_in(
         dir.path(),
-        &["brdf", "pca", "lambert.binary", "phong.binary", "-k", "1", "--fit", "ward.binary", "-o", "fit.binary"],
+        &["brdf", "pca", "lambert.binary", "phong.binary", "-k", "1", "--fit", "blinn.binary", "-o", "fit.binary"],
     )
     .success();
     let errors: Vec<f64> = run
@@ -39,10 +39,15 @@ fn tabulate_writes_a_table_that_pca_reconstructs() {
     let fitted = MerlTable::read(&dir.path().join("fit.binary")).unwrap();
     assert!(fitted.values().iter().all(|v| v.min_element() >= 0.0), "a fitted BRDF is non-negative");
 
-    // Refusals: an existing output, an unknown material, too many components.
+    // Refusals: an existing output, an unknown material, materials a table cannot hold (the
+    // anisotropic Ward sphere, the plastic's mirror coat), too many components.
     let before = files_under(dir.path());
+    lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", "blinn", "-o", "blinn.binary"])
+        .failure(&["blinn.binary", "already exists"]);
     lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", "ward", "-o", "ward.binary"])
-        .failure(&["ward.binary", "already exists"]);
+        .failure(&["ward", "anisotropic"]);
+    lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", "plastic", "-o", "plastic.binary"])
+        .failure(&["plastic", "mirror-like"]);
     lucid_in(dir.path(), &["brdf", "tabulate", &materials(), "--material", "velvet", "-o", "v.binary"])
         .failure(&["velvet", "materials.toml"]);
     lucid_in(dir.path(), &["brdf", "pca", "lambert.binary", "phong.binary", "-k", "2"]).failure(&["2 components"]);

@@ -66,6 +66,52 @@ pub enum Command {
     /// Measured BRDFs in the MERL format: `tabulate` a scene file's material into a table,
     /// `pca` builds a basis of tables and fits one in it.
     Brdf(BrdfArgs),
+    /// Light-stage tools: `calibrate` finds each OLAT light's direction from the highlights
+    /// on chrome reference spheres.
+    Lightstage(LightstageArgs),
+}
+
+/// `lucid lightstage`.
+#[derive(Debug, Args)]
+pub struct LightstageArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: LightstageCommand,
+}
+
+/// `lucid lightstage` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum LightstageCommand {
+    /// Recover each light of an OLAT set from the highlights on its chrome reference spheres
+    /// (`lucid gen SCENE --rig olat --reference-sphere chrome ...`): every frame's spheres,
+    /// combined per light over spheres and views; reports each light's angular error against
+    /// the direction the dataset records and writes the recovered ones for
+    /// `lucid relight --directions`.
+    Calibrate {
+        /// The OLAT dataset.
+        dataset: PathBuf,
+        /// Which split's frames to use.
+        #[arg(long, value_enum, default_value_t = SplitArg::Train)]
+        split: SplitArg,
+        /// Chrome spheres as X,Y,Z,R (world units), instead of those dataset.toml records.
+        #[arg(long = "sphere", value_name = "X,Y,Z,R", value_parser = parse_sphere)]
+        spheres: Vec<[f32; 4]>,
+        /// Where to write the recovered directions (JSON; must not exist).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Print the results as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn parse_sphere(s: &str) -> Result<[f32; 4], String> {
+    let v: Vec<f32> =
+        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z, r] if v.iter().all(|a| a.is_finite()) && r > 0.0 => Ok([x, y, z, r]),
+        _ => Err(format!("{s:?}: give X,Y,Z,R with a positive radius")),
+    }
 }
 
 /// `lucid brdf`.
@@ -79,8 +125,8 @@ pub struct BrdfArgs {
 /// `lucid brdf` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum BrdfCommand {
-    /// Tabulate a material of a scene file as a MERL `.binary` table (90 × 90 × 180 cells;
-    /// textures are read at uv = 0).
+    /// Tabulate a material of a scene file as a MERL `.binary` table (90 × 90 × 180 cells);
+    /// refused for materials a table cannot hold (anisotropic, textured, specular, fibres).
     Tabulate {
         /// The scene file.
         scene: PathBuf,
@@ -214,6 +260,10 @@ pub struct RelightArgs {
     /// How the map becomes light weights.
     #[arg(long, value_enum, default_value_t = WeightingArg::Cell)]
     pub weights: WeightingArg,
+    /// Light directions recovered by `lucid lightstage calibrate`, instead of those the
+    /// dataset records.
+    #[arg(long)]
+    pub directions: Option<PathBuf>,
     /// Print the results as JSON.
     #[arg(long)]
     pub json: bool,
@@ -722,6 +772,12 @@ pub struct GenArgs {
     /// (each on its own): held-out light directions for evaluating relighting models.
     #[arg(long, default_value_t = 8)]
     pub held_out_lights: usize,
+    /// A reference sphere added to the scene for light-stage tools (repeat for more):
+    /// `chrome` or `diffuse`, optionally `@X,Y,Z` or `@X,Y,Z,R` in world units; spheres without
+    /// a place take four corners around the object in turn (radius 0.18). Recorded in
+    /// dataset.toml for `lucid lightstage calibrate`.
+    #[arg(long = "reference-sphere", value_name = "KIND[@X,Y,Z[,R]]")]
+    pub reference_spheres: Vec<lucid_datasets_gen::reference_spheres::SphereArg>,
     /// Capture rig: number of photographs (every 8th by name is held out when training).
     #[arg(long, default_value_t = 120)]
     pub images: usize,

@@ -11,6 +11,7 @@
 //! - [`median_cut`]: Debevec's median-cut extraction of point lights from a map.
 
 pub mod envmap;
+pub mod lightstage;
 pub mod median_cut;
 pub mod sh;
 pub mod transport;

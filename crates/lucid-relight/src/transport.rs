@@ -65,6 +65,17 @@ fn barycentric(directions: &[Vec3], d: Vec3) -> [(usize, f32); 3] {
 /// Reads the OLAT frames (those with a light direction) of view `view` of `split`, grouped by
 /// camera pose, and the light irradiance from `dataset.toml` (π, the generator's, if absent).
 pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, RelightError> {
+    load_view_with(root, split, view, None)
+}
+
+/// [`load_view`] with the light directions of `directions` (by light name, as
+/// `lucid lightstage calibrate` writes them) instead of those the dataset records.
+pub fn load_view_with(
+    root: &Path,
+    split: Split,
+    view: usize,
+    given: Option<&std::collections::HashMap<String, Vec3>>,
+) -> Result<OlatView, RelightError> {
     let dataset = Dataset::open(root)?;
     let views: Vec<Vec<&Frame>> = group_by_pose(dataset.frames(split))
         .into_iter()
@@ -96,7 +107,18 @@ pub fn load_view(root: &Path, split: Split, view: usize) -> Result<OlatView, Rel
             continue;
         }
         if let Some(d) = f.extras.light_direction {
-            directions.push(d.normalize());
+            let d = match given {
+                None => d.normalize(),
+                Some(map) => {
+                    let name = crate::lightstage::capture::light_name(&f.file_path).ok_or_else(|| {
+                        RelightError::Invalid(format!("{}: not named as an OLAT frame (…_l<k>)", f.file_path))
+                    })?;
+                    *map.get(&name).ok_or_else(|| {
+                        RelightError::Invalid(format!("no direction was recovered for light {name} ({})", f.file_path))
+                    })?
+                }
+            };
+            directions.push(d);
             images.push(read_image(&path)?);
         } else if let Some(env) = &f.extras.environment_path {
             truths.push((env.clone(), read_image(&path)?));

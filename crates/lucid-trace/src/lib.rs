@@ -2,6 +2,7 @@
 //! truth, so its correctness is checked against closed forms (white furnace, solid angles,
 //! Fresnel values, pdf normalisation) and against a reference render of the Cornell box.
 
+pub mod assets;
 mod bdpt;
 pub mod bsdf;
 pub mod distribution;
@@ -15,6 +16,7 @@ pub mod manylight;
 pub mod material;
 pub mod medium;
 pub mod packet;
+pub mod projector;
 pub mod pssmlt;
 pub mod render;
 pub mod sample_scenes;
@@ -24,6 +26,7 @@ pub mod scene_file;
 mod scene_integrator;
 pub mod sppm;
 pub mod subsurface;
+pub mod tabulate;
 pub mod texture_set;
 mod visible;
 

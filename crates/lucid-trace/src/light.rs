@@ -7,6 +7,7 @@ use std::f32::consts::PI;
 
 use crate::environment::EnvironmentMap;
 use crate::geometry::{Primitive, Shape, triangle_normal};
+use crate::projector::Projector;
 use crate::sampling::{UNIFORM_SPHERE_PDF, uniform_sphere, uniform_triangle};
 
 /// A light source.
@@ -63,6 +64,8 @@ pub enum Light {
     },
     /// A lat-long radiance map around the scene, importance-sampled.
     EnvironmentMap(Box<EnvironmentMap>),
+    /// A pinhole projector: a point light whose intensity is an image over its frustum.
+    Projector(Box<Projector>),
 }
 
 /// A direction towards a light and what arrives along it.
@@ -126,6 +129,20 @@ impl Light {
             Light::Directional { direction, irradiance } => {
                 Some(LightSample { wi: *direction, li: *irradiance, pdf: 1.0, distance: f32::INFINITY, delta: true })
             }
+            Light::Projector(projector) => {
+                let d = projector.position() - point;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                let wi = d / distance;
+                let intensity = projector.intensity(-wi);
+                (intensity != Vec3::ZERO).then(|| LightSample {
+                    wi,
+                    li: intensity / dist2,
+                    pdf: 1.0,
+                    distance,
+                    delta: true,
+                })
+            }
             Light::Area { cdf, shapes, area, radiance, two_sided } => {
                 let (p, n) = point_on_area(cdf, shapes, *area, u);
                 let (sample, valid) = towards_area_point(point, p, n, *area, *radiance, *two_sided);
@@ -186,6 +203,7 @@ impl Light {
                 2.0 * PI * *intensity * (1.0 - 0.5 * (cos_inner + cos_outer))
             }
             Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * *irradiance,
+            Light::Projector(projector) => projector.power(),
             Light::Area { area, radiance, two_sided, .. } => {
                 PI * *area * *radiance * if *two_sided { 2.0 } else { 1.0 }
             }

@@ -38,9 +38,12 @@
 //!                                # | svbrdf (metallic-roughness GGX: base_color, roughness,
 //!                                # metallic = 0.0, normal = { file = "n.png" }; maps may be numbers,
 //!                                # textures (data files linear by default) or { procedural = "tiles" })
-//!                                # | measured (file = "gold-paint.binary": a MERL BRDF table)
+//!                                # | measured (file = "gold-paint.binary": a MERL BRDF table, or
+//!                                # tabulate = { type = "cook_torrance", .. }: the table of an
+//!                                # isotropic, uniform, non-specular material, made at load)
 //!                                # | neural (file = "gold-paint.json": a neural BRDF that
-//!                                # `lucid brdf fit-neural` fitted to a table)
+//!                                # `lucid brdf fit-neural` fitted to a table; "builtin:NAME" is
+//!                                # one compiled in, e.g. "builtin:neural/plum-lacquer.json")
 //!                                # | subsurface (translucent: a smooth boundary of index eta = 1.33
 //!                                # over a dipole + single-scattering BSSRDF; sigma_a and reduced
 //!                                # sigma_s per unit length, or albedo and mfp (mean free path);
@@ -71,7 +74,7 @@
 //! emission = [0, 0, 0]           # radiance; > 0 makes the shape an area light
 //!
 //! [[lights]]
-//! type = "point"                 # point | spot | directional | environment
+//! type = "point"                 # point | spot | directional | environment | projector
 //! position = [0, 2, 0]
 //! intensity = [10, 10, 10]
 //!
@@ -91,6 +94,15 @@
 //! intensity = [0.01, 0.01, 0.01]
 //! jitter = 0.8
 //! tint = 0.5
+//!
+//! [[lights]]                     # a pinhole projector: intensity (W/sr) × the image's pixel
+//! type = "projector"             # that each direction passes through (LDR images decoded
+//! position = [0, 1, 3]           # from sRGB), nothing outside its frustum; resolution = [M, N]
+//! look_at = [0, 0, 0]            # without an image projects white; pixel = [i, j] (from the
+//! up = [0, 1, 0]                 # top left) lights only that pixel
+//! fov = 30.0                     # horizontal, degrees
+//! image = "slide.png"
+//! intensity = [5, 5, 5]
 //!
 //! [[lights]]
 //! type = "environment"           # radiance = [r, g, b] or file = "sky.exr" (lat-long, relative
@@ -117,6 +129,7 @@ use crate::scene_integrator::IntegratorSection;
 use materials::MaterialSection;
 
 mod materials;
+mod projector_light;
 
 /// Why a scene file could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -191,7 +204,7 @@ struct CameraSection {
     focus_distance: Option<f32>,
 }
 
-fn default_up() -> [f32; 3] {
+pub(super) fn default_up() -> [f32; 3] {
     [0.0, 0.0, 1.0]
 }
 
@@ -268,6 +281,7 @@ enum LightSection {
         #[serde(default)]
         seed: u64,
     },
+    Projector(projector_light::ProjectorSection),
     Environment {
         radiance: Option<[f32; 3]>,
         file: Option<String>,
@@ -628,6 +642,7 @@ impl Builder<'_> {
                 }
             }
             LightSection::PointGrid { .. } => unreachable!("the caller expands grids into many lights"),
+            LightSection::Projector(p) => self.projector(key, p)?,
             LightSection::Directional { direction, irradiance } => {
                 self.finite(key, direction)?;
                 let d = Vec3::from(*direction).normalize_or_zero();

@@ -4,7 +4,6 @@
 use std::path::Path;
 
 use anyhow::Context;
-use lucid_trace::bsdf::Bsdf;
 use lucid_trace::bsdf::measured::MerlTable;
 use lucid_trace::bsdf::measured_pca::{BrdfPca, relative_rms};
 
@@ -41,9 +40,9 @@ fn tabulate(scene: &Path, name: &str, output: &Path) -> anyhow::Result<()> {
         .with_context(|| format!("{}: no material {name:?} (it has {names:?})", scene.display()))?;
     let loaded = lucid_trace::load_scene(scene)?;
     let material = &loaded.scene.materials[index];
-    let bsdf = material.bsdf(glam::Vec2::ZERO);
     let started = std::time::Instant::now();
-    let merl = MerlTable::from_fn(|wo, wi| bsdf.eval(wo, wi));
+    let merl = lucid_trace::tabulate::tabulate(material)
+        .with_context(|| format!("{}: material {name:?} has no table", scene.display()))?;
     merl.write(output)?;
     println!(
         "tabulated {name} of {} into {} in {:.1} s",

@@ -11,6 +11,7 @@ mod export_web;
 pub mod generate;
 mod hdr;
 mod info;
+mod lightstage;
 mod metrics;
 mod refocus;
 mod relight;
@@ -55,6 +56,7 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
             crate::cli::ExportCommand::Web(args) => export_web::run(args),
         },
         Command::Brdf(args) => brdf::run(args.command),
+        Command::Lightstage(args) => lightstage::run(args.command),
     }
 }
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::bail;
 use lucid_image::metrics::{MetricSpace, prepare_for_metrics, psnr};
 use lucid_image::{Image, read_image, write_image};
-use lucid_relight::transport::{Weighting, light_weights, load_view, relight};
+use lucid_relight::transport::{Weighting, light_weights, load_view_with, relight};
 use serde_json::json;
 
 use crate::cli::{RelightArgs, WeightingArg};
@@ -31,7 +31,8 @@ pub fn run(args: RelightArgs) -> anyhow::Result<()> {
     if let Some(out) = &args.output {
         lucid_image::ImageFormat::from_path(out)?;
     }
-    let view = load_view(&args.dataset, args.split.into(), args.view)?;
+    let given = args.directions.as_deref().map(lucid_relight::lightstage::capture::read_directions).transpose()?;
+    let view = load_view_with(&args.dataset, args.split.into(), args.view, given.as_ref())?;
     let weighting = match args.weights {
         WeightingArg::Cell => Weighting::CellIntegral,
         WeightingArg::Point => Weighting::PointSample,

@@ -83,7 +83,7 @@ pub(crate) fn is_distant(light: &Light) -> bool {
 
 /// Whether a light's position or direction is a Dirac delta (no path can hit it).
 pub(crate) fn is_delta(light: &Light) -> bool {
-    matches!(light, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. })
+    matches!(light, Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } | Light::Projector(_))
 }
 
 /// Samples a ray leaving `light`, with two uniform pairs.
@@ -109,6 +109,10 @@ pub(crate) fn sample_emission(light: &Light, sphere: SceneSphere, u1: Vec2, u2: 
                 pdf_pos: 1.0,
                 pdf_dir: uniform_cone_pdf(*cos_outer),
             }
+        }
+        Light::Projector(projector) => {
+            let (direction, le, pdf_dir) = projector.sample_emission(u1)?;
+            EmittedRay { origin: projector.position(), direction, normal: Vec3::ZERO, le, pdf_pos: 1.0, pdf_dir }
         }
         Light::Directional { direction, irradiance } => EmittedRay {
             origin: disk_point(sphere, *direction, u1),
@@ -179,6 +183,7 @@ pub(crate) fn emission_pdf(light: &Light, sphere: SceneSphere, normal: Vec3, dir
             (0.0, if direction.dot(*axis) >= *cos_outer { uniform_cone_pdf(*cos_outer) } else { 0.0 })
         }
         Light::Directional { .. } => (0.0, 0.0),
+        Light::Projector(projector) => (0.0, projector.emission_pdf(direction)),
         Light::Area { area, two_sided, .. } => {
             let cos = normal.dot(direction);
             let pdf_dir = if *two_sided { 0.5 * cos.abs() * FRAC_1_PI } else { cos.max(0.0) * FRAC_1_PI };
@@ -259,6 +264,18 @@ mod tests {
             Light::area(&prims, vec![0, 1], Vec3::ONE, false),
             Light::area(&prims, vec![0, 1], Vec3::ONE, true),
             Light::ConstantEnvironment { radiance: Vec3::ONE },
+            Light::Projector(Box::new(
+                crate::projector::Projector::new(
+                    Vec3::ZERO,
+                    Vec3::new(0.3, 1.0, 0.2),
+                    Vec3::Z,
+                    0.9,
+                    4,
+                    3,
+                    (0..12).map(|k| Vec3::splat((k % 5) as f32)).collect(),
+                )
+                .unwrap(),
+            )),
         ]
     }
 

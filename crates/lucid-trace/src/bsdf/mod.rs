@@ -27,7 +27,7 @@ pub mod neural;
 pub mod phong;
 pub mod plastic;
 pub mod poulin_fournier;
-mod shared_file;
+pub(crate) mod shared_file;
 pub mod ward;
 
 use glam::{Vec2, Vec3};

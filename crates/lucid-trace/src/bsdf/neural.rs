@@ -158,10 +158,15 @@ impl NeuralBrdfNet {
 
     /// Reads a network file.
     pub fn read(path: &Path) -> Result<Self, NeuralBrdfError> {
-        let format = |reason: String| NeuralBrdfError::Format { path: path.to_path_buf(), reason };
         let text =
             std::fs::read_to_string(path).map_err(|source| NeuralBrdfError::Io { path: path.to_path_buf(), source })?;
-        let file: NeuralBrdfFile = serde_json::from_str(&text).map_err(|e| format(e.to_string()))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses a network file's text; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, NeuralBrdfError> {
+        let format = |reason: String| NeuralBrdfError::Format { path: path.to_path_buf(), reason };
+        let file: NeuralBrdfFile = serde_json::from_str(text).map_err(|e| format(e.to_string()))?;
         if file.format != FORMAT || file.version != 1 {
             return Err(format(format!(
                 "format {:?} version {} (expected {FORMAT:?} version 1)",
@@ -246,6 +251,19 @@ impl NeuralBrdfModel {
     pub fn load_shared(path: &Path) -> Result<&'static NeuralBrdfModel, NeuralBrdfError> {
         let io = |source| NeuralBrdfError::Io { path: path.to_path_buf(), source };
         super::shared_file::load_shared(path, io, |p| NeuralBrdfNet::read(p).map(Self::new))
+    }
+
+    /// The built-in network `name` (see [`crate::assets`]), made once per process.
+    pub fn load_builtin(name: &str) -> Result<&'static NeuralBrdfModel, NeuralBrdfError> {
+        let label = std::path::PathBuf::from(format!("{}{name}", crate::assets::PREFIX));
+        let Some(text) = crate::assets::text(name) else {
+            let known: Vec<&str> = crate::assets::names().filter(|n| n.starts_with("neural/")).collect();
+            return Err(NeuralBrdfError::Format {
+                path: label,
+                reason: format!("no such built-in network (there are {known:?})"),
+            });
+        };
+        super::shared_file::load_named(&label.to_string_lossy(), || NeuralBrdfNet::parse(text, &label).map(Self::new))
     }
 }
 

@@ -109,7 +109,8 @@ pub(super) enum MaterialSection {
         layers: Vec<KmLayerSection>,
     },
     Measured {
-        file: String,
+        file: Option<String>,
+        tabulate: Option<Box<MaterialSection>>,
     },
     Neural {
         file: String,
@@ -365,12 +366,23 @@ impl Builder<'_> {
                 Material::CookTorrance { kd, ks, m: *roughness, eta: ior(*v)? }
             }
             MaterialSection::Interface => Material::Interface,
-            MaterialSection::Measured { file } => {
-                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
-                let table = crate::bsdf::measured::MerlTable::load_shared(&path)
-                    .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
-                Material::Measured { table }
-            }
+            MaterialSection::Measured { file, tabulate } => Material::Measured {
+                table: match (file, tabulate) {
+                    (Some(file), None) => {
+                        if file.starts_with(crate::assets::PREFIX) {
+                            return Err(self.invalid(
+                                format!("{key}.file"),
+                                "no measured table is built in (one is 35 MB); give a file or `tabulate`",
+                            ));
+                        }
+                        let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
+                        crate::bsdf::measured::MerlTable::load_shared(&path)
+                            .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?
+                    }
+                    (None, Some(source)) => self.tabulated(&format!("{key}.tabulate"), source)?,
+                    _ => return Err(self.invalid(key, "give one of `file` (a MERL table) and `tabulate`")),
+                },
+            },
             MaterialSection::Subsurface { sigma_a, sigma_s, albedo, mfp, eta, scale } => {
                 if !(eta.is_finite() && (1.0..=3.0).contains(eta)) {
                     return Err(self.invalid(format!("{key}.eta"), "must be in [1, 3]"));
@@ -477,10 +489,12 @@ impl Builder<'_> {
                 Material::PoulinFournier { kd, ks, d: d.max(width), h: *h, sigma }
             }
             MaterialSection::Neural { file } => {
-                let path = self.path.parent().unwrap_or(Path::new(".")).join(file);
-                let model = crate::bsdf::neural::NeuralBrdfModel::load_shared(&path)
-                    .map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))?;
-                Material::Neural { model }
+                use crate::bsdf::neural::NeuralBrdfModel;
+                let model = match file.strip_prefix(crate::assets::PREFIX) {
+                    Some(name) => NeuralBrdfModel::load_builtin(name),
+                    None => NeuralBrdfModel::load_shared(&self.path.parent().unwrap_or(Path::new(".")).join(file)),
+                };
+                Material::Neural { model: model.map_err(|e| self.invalid(format!("{key}.file"), e.to_string()))? }
             }
             MaterialSection::Svbrdf { base_color, roughness, metallic, normal } => Material::Svbrdf {
                 base_color: self.albedo(&format!("{key}.base_color"), base_color)?,
@@ -493,6 +507,19 @@ impl Builder<'_> {
                 layers: self.km_layers(key, layers)?,
             },
         })
+    }
+
+    /// The table of the material `source` (refused unless it is one isotropic, non-specular
+    /// BRDF), made once per process for each scene folder and section.
+    fn tabulated(
+        &self,
+        key: &str,
+        source: &MaterialSection,
+    ) -> Result<&'static crate::bsdf::measured::MerlTable, SceneFileError> {
+        let material = self.material(key, source)?;
+        // Relative files inside the section resolve against the scene's folder.
+        let id = format!("{}: {source:?}", self.path.parent().unwrap_or(Path::new(".")).display());
+        crate::tabulate::tabulate_shared(&id, &material).map_err(|e| self.invalid(key, e.to_string()))
     }
 
     /// A map of a generated texture set.

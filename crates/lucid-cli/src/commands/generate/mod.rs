@@ -18,6 +18,7 @@ use serde::Serialize;
 use crate::cli::{GenArgs, ResponseArg, RigArg};
 use lucid_datasets_gen::brackets::{BracketSpec, CameraResponse, SensorNoise};
 use lucid_datasets_gen::olat::{OlatSpec, builtin_environments, held_out_directions, sphere_directions};
+use lucid_datasets_gen::reference_spheres::{ReferenceSphere, add_to_scene, place_spheres};
 use lucid_datasets_gen::writer::ViewRenderer;
 
 /// Whether an integrator's name is the default's.
@@ -52,6 +53,9 @@ struct DatasetRecord<'a> {
     lights: Option<usize>,
     light_irradiance: Option<f32>,
     held_out_lights: Option<usize>,
+    /// Last: arrays of tables follow plain keys in TOML.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    reference_spheres: Vec<ReferenceSphere>,
 }
 
 /// `gen` writes only into a missing or empty folder, or one holding a dataset it made (its
@@ -109,7 +113,15 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     if args.views[0] == 0 {
         bail!("--views needs at least one training view");
     }
-    let mut loaded = lucid_datasets_gen::builtin::load_named_scene(&args.scene)?;
+    let spheres = place_spheres(&args.reference_spheres).map_err(|e| anyhow::anyhow!("--reference-sphere: {e}"))?;
+    let mut loaded = if spheres.is_empty() {
+        lucid_datasets_gen::builtin::load_named_scene(&args.scene)?
+    } else {
+        let (text, path) = lucid_datasets_gen::builtin::named_scene_text(&args.scene)?;
+        let text = add_to_scene(&text, &spheres)
+            .map_err(|e| anyhow::anyhow!("{}: cannot add reference spheres: {e}", args.scene))?;
+        lucid_trace::parse_scene(&text, &path)?
+    };
     crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     crate::commands::override_integrator(&mut loaded, args.integrator, &args.scene)?;
     if let RigArg::Capture = rig {
@@ -229,6 +241,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
         lights: olat.as_ref().map(|o| o.directions.len()),
         light_irradiance: olat.as_ref().map(|o| o.irradiance),
         held_out_lights: olat.as_ref().map(|o| o.held_out.len()),
+        reference_spheres: spheres,
     };
     let renderer = PathTracedScene { scene: loaded.scene, settings: loaded.settings };
     if olat.is_some() {

@@ -37,6 +37,7 @@ struct RigFile {
     position_noise: Option<f32>,
     point_noise: Option<f32>,
     points: Option<usize>,
+    reference_spheres: Option<Vec<String>>,
 }
 
 /// The rig type named by `--rig`, after applying a rig file's options to `args`.
@@ -91,6 +92,14 @@ pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Re
         && from_file("height")
     {
         args.height = Some(h);
+    }
+    if let Some(spheres) = &file.reference_spheres
+        && from_file("reference_spheres")
+    {
+        args.reference_spheres = spheres
+            .iter()
+            .map(|s| s.parse().map_err(|e| anyhow::anyhow!("{}: reference_spheres: {e}", path.display())))
+            .collect::<anyhow::Result<_>>()?;
     }
     if let Some(grid) = file.grid
         && from_file("grid")
