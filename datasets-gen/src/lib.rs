@@ -10,6 +10,7 @@ pub mod analytic;
 pub mod brackets;
 pub mod builtin;
 pub mod capture;
+pub mod dual;
 pub mod lightfield;
 pub mod olat;
 pub mod path_traced;

@@ -91,16 +91,25 @@ impl FromStr for SphereArg {
     }
 }
 
-/// The spheres of `args`, those without a place at the default places in turn; an error if
-/// more than four need one or two spheres overlap.
+/// The spheres of `args`, those without a place at the default places in turn (skipping
+/// places that a sphere given a place would overlap); an error if too few places are left or
+/// two spheres overlap.
 pub fn place_spheres(args: &[SphereArg]) -> Result<Vec<ReferenceSphere>, String> {
-    let mut free = DEFAULT_PLACES.iter();
+    let placed: Vec<(glam::Vec3, f32)> = args
+        .iter()
+        .filter_map(|a| a.centre.map(|c| (glam::Vec3::from(c), a.radius.unwrap_or(DEFAULT_RADIUS))))
+        .collect();
+    let mut free = DEFAULT_PLACES
+        .iter()
+        .filter(|p| placed.iter().all(|(c, r)| c.distance(glam::Vec3::from(**p)) >= r + DEFAULT_RADIUS));
     let spheres: Vec<ReferenceSphere> = args
         .iter()
         .map(|a| {
             let centre = match a.centre {
                 Some(c) => c,
-                None => *free.next().ok_or("more than four spheres without a place (give KIND@x,y,z)")?,
+                None => {
+                    *free.next().ok_or("more spheres without a place than free default places (give KIND@x,y,z)")?
+                }
             };
             Ok(ReferenceSphere { kind: a.kind, centre, radius: a.radius.unwrap_or(DEFAULT_RADIUS) })
         })

@@ -249,6 +249,21 @@ fn rig_files_set_options_and_the_command_line_wins() {
     assert_eq!(info["splits"][0]["resolutions"][0], "12x12", "--res on the command line wins");
     let record = std::fs::read_to_string(dir.path().join("a/dataset.toml")).unwrap();
     assert!(record.contains("rig = \"brackets\""), "{record}");
+    // Reference spheres from a rig file, recorded where they were put; a bad one is refused.
+    std::fs::write(
+        dir.path().join("spheres.toml"),
+        "type = \"olat\"\nviews = [1, 0, 0]\nres = 8\nlights = 1\nreference_spheres = [\"chrome@0.9,0.9,-0.7,0.2\", \"diffuse\"]\n",
+    )
+    .unwrap();
+    lucid_in(dir.path(), &["gen", "studio", "--rig", "spheres.toml", "-o", "s", "--spp", "1"]).success();
+    let record: toml::Table = std::fs::read_to_string(dir.path().join("s/dataset.toml")).unwrap().parse().unwrap();
+    let spheres = record["reference_spheres"].as_array().unwrap();
+    assert_eq!(spheres.len(), 2);
+    assert_eq!(spheres[0]["kind"].as_str(), Some("chrome"));
+    assert!((spheres[0]["radius"].as_float().unwrap() - 0.2).abs() < 1e-6);
+    assert_eq!(spheres[1]["kind"].as_str(), Some("diffuse"));
+    std::fs::write(dir.path().join("bad.toml"), "type = \"olat\"\nreference_spheres = [\"glass\"]\n").unwrap();
+    lucid_in(dir.path(), &["gen", "studio", "--rig", "bad.toml", "-o", "b"]).failure(&["bad.toml", "glass"]);
     // Every shipped rig file works (shrunk from the command line to stay quick).
     for (rig, extra) in [("orbit", "--res"), ("brackets", "--res"), ("lightfield", "--grid"), ("olat", "--lights")] {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../configs/rigs/{rig}.toml"));

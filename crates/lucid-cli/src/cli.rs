@@ -69,6 +69,43 @@ pub enum Command {
     /// Light-stage tools: `calibrate` finds each OLAT light's direction from the highlights
     /// on chrome reference spheres.
     Lightstage(LightstageArgs),
+    /// Dual photography: measure the transport from a scene's projector light to its camera
+    /// (one projector pixel at a time, or adaptively) and form the image the projector would
+    /// see if the camera were the light.
+    Dual(DualArgs),
+}
+
+/// `lucid dual`.
+#[derive(Debug, Args)]
+pub struct DualArgs {
+    /// A scene file (or built-in scene) with a camera and a `projector` light (its first one
+    /// is used; the scene's other lights are left out).
+    pub scene: String,
+    /// Output folder (new or empty): dual.exr (projector's view, lit from the camera),
+    /// primal.exr (the camera's view under the whole projector), dual.json (the report).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Light groups of projector pixels whose camera footprints do not overlap instead of one
+    /// pixel at a time.
+    #[arg(long)]
+    pub adaptive: bool,
+    /// Adaptive: side of the projector blocks whose footprints are measured first.
+    #[arg(long, default_value_t = 4)]
+    pub block: usize,
+    /// Adaptive: a camera pixel is in a footprint above this share of its brightest pixel.
+    #[arg(long, default_value_t = 0.01)]
+    pub threshold: f32,
+    /// Samples per pixel of each render (default: the scene's).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Also render the reciprocal image directly (from the projector, the camera a white
+    /// light) at this many samples per pixel, write it as reciprocal.exr and score the dual
+    /// against it.
+    #[arg(long)]
+    pub check_spp: Option<u32>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `lucid lightstage`.
@@ -332,6 +369,41 @@ pub enum EnvmapCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Restore the clipped sun of an HDR sky from a photograph of a diffuse ball of known
+    /// albedo under it: the ball's shading beyond what the clipped map predicts is the missing
+    /// sun, added back to the clipped pixels.
+    FixSun {
+        /// The clipped lat-long map (linear HDR, +Z up).
+        input: PathBuf,
+        /// The diffuse ball's image (linear): square, the ball filling it, photographed from
+        /// far out on +Y looking along −Y with +Z up.
+        #[arg(long)]
+        sphere: PathBuf,
+        /// The ball's albedo: one value, or r,g,b.
+        #[arg(long, value_parser = parse_albedo)]
+        albedo: [f32; 3],
+        /// The fixed map to write (must not exist).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn parse_albedo(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> =
+        s.split(',').map(|x| x.trim().parse::<f32>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+    let rgb = match v[..] {
+        [a] => [a; 3],
+        [r, g, b] => [r, g, b],
+        _ => return Err(format!("{s:?}: give one albedo or r,g,b")),
+    };
+    if rgb.iter().all(|a| a.is_finite() && *a > 0.0 && *a <= 1.0) {
+        Ok(rgb)
+    } else {
+        Err(format!("{s:?}: albedo must be in (0, 1]"))
+    }
 }
 
 /// `lucid hdr`.

@@ -14,6 +14,7 @@ pub mod envmap;
 pub mod lightstage;
 pub mod median_cut;
 pub mod sh;
+pub mod sun;
 pub mod transport;
 pub mod voronoi;
 

@@ -33,6 +33,13 @@ fn corner_solid_angle(x: f32, y: f32) -> f32 {
     (x * y / (1.0 + x * x + y * y).sqrt()).atan()
 }
 
+/// Solid angle of the rectangle with corners `a` and `b` (a < b) on the plane at distance 1,
+/// seen from the origin: a pixel's, for projectors and pinhole cameras alike.
+pub fn rectangle_solid_angle(a: Vec2, b: Vec2) -> f32 {
+    corner_solid_angle(b.x, b.y) - corner_solid_angle(a.x, b.y) - corner_solid_angle(b.x, a.y)
+        + corner_solid_angle(a.x, a.y)
+}
+
 fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
@@ -108,8 +115,26 @@ impl Projector {
     /// Solid angle of pixel `(i, j)` seen from the projector (closed form).
     pub fn pixel_solid_angle(&self, i: usize, j: usize) -> f32 {
         let (a, b) = self.pixel_rect(i, j);
-        corner_solid_angle(b.x, b.y) - corner_solid_angle(a.x, b.y) - corner_solid_angle(b.x, a.y)
-            + corner_solid_angle(a.x, a.y)
+        rectangle_solid_angle(a, b)
+    }
+
+    /// The pinhole camera that sees, pixel for pixel, what this projector lights.
+    pub fn camera(&self) -> lucid_scene::PinholeCamera {
+        let intrinsics =
+            lucid_scene::Intrinsics::from_fov_x(self.width as u32, self.height as u32, 2.0 * self.half.x.atan());
+        let pose = lucid_scene::look_at(self.position, self.position + self.forward, self.up);
+        lucid_scene::PinholeCamera::new(intrinsics, pose)
+    }
+
+    /// A projector at `camera` with its frustum and resolution, every pixel `intensity`: the
+    /// camera turned into a light (dual photography's other half); the camera's principal point
+    /// is taken as centred and its pixels as square, as scene files make them.
+    pub fn from_camera(camera: &lucid_scene::PinholeCamera, intensity: Vec3) -> Option<Self> {
+        let k = &camera.intrinsics;
+        let position = camera.position();
+        let up = camera.camera_to_world.y_axis.truncate();
+        let (w, h) = (k.width as usize, k.height as usize);
+        Self::new(position, position + camera.forward(), up, k.fov_x(), w, h, vec![intensity; w * h])
     }
 
     /// The pixel that the direction `w` (unit, from the projector) passes through, and its

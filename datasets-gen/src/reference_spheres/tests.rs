@@ -23,9 +23,14 @@ fn spheres_without_a_place_fill_the_default_places_and_overlaps_are_refused() {
     let four = place_spheres(&[chrome; 4]).unwrap();
     assert_eq!(four.iter().map(|s| s.centre).collect::<Vec<_>>(), DEFAULT_PLACES.to_vec());
     assert!(four.iter().all(|s| s.radius == DEFAULT_RADIUS));
-    assert!(place_spheres(&[chrome; 5]).unwrap_err().contains("four"));
+    assert!(place_spheres(&[chrome; 5]).unwrap_err().contains("free default places"));
+    // A sphere given a default place's spot pushes the placeless ones on to the next place.
     let here = SphereArg { kind: SphereKind::Diffuse, centre: Some(DEFAULT_PLACES[0]), radius: Some(0.1) };
-    assert!(place_spheres(&[chrome, here]).unwrap_err().contains("overlap"));
+    let two = place_spheres(&[chrome, here]).unwrap();
+    assert_eq!(two[0].centre, DEFAULT_PLACES[1]);
+    let there = SphereArg { centre: Some([0.0, 0.0, 0.0]), ..here };
+    let close = SphereArg { centre: Some([0.1, 0.0, 0.0]), ..here };
+    assert!(place_spheres(&[there, close]).unwrap_err().contains("overlap"));
 }
 
 #[test]

@@ -79,6 +79,46 @@ pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
                 }
             }
         }
+        EnvmapCommand::FixSun { input, sphere, albedo, output, json } => {
+            anyhow::ensure!(!output.exists(), "{}: already exists (give a new file)", output.display());
+            lucid_image::ImageFormat::from_path(&output)?;
+            let map = read_image(&input)?;
+            let ball = read_image(&sphere)?;
+            let (fixed, report) = lucid_relight::sun::fix_sun(&map, &ball, Vec3::from(albedo))
+                .with_context(|| format!("{} with {}", input.display(), sphere.display()))?;
+            write_image(&output, &fixed)?;
+            let sun = report.added.map(|a| a + report.clip_level);
+            if json {
+                let value = json!({
+                    "clip_level": report.clip_level,
+                    "clipped_pixels": report.clipped_pixels,
+                    "solid_angle": report.solid_angle,
+                    "added": report.added,
+                    "sun_radiance": sun,
+                    "direction": report.direction.to_array(),
+                    "fitted_pixels": report.fitted_pixels,
+                    "relative_residual": report.residual,
+                });
+                println!("{}", serde_json::to_string_pretty(&value)?);
+            } else {
+                println!(
+                    "{} pixels ({:.2e} sr) clip at {:.4}; the ball's {} sun-facing pixels put the sun at [{:.1}, {:.1}, {:.1}] \
+                     (fit residual {:.2} %), towards [{:+.3}, {:+.3}, {:+.3}]; wrote {}",
+                    report.clipped_pixels,
+                    report.solid_angle,
+                    report.clip_level,
+                    report.fitted_pixels,
+                    sun[0],
+                    sun[1],
+                    sun[2],
+                    100.0 * report.residual,
+                    report.direction.x,
+                    report.direction.y,
+                    report.direction.z,
+                    output.display()
+                );
+            }
+        }
         EnvmapCommand::Voronoi { directions, json } => {
             let dirs = parse_directions(&directions)?;
             let angles = voronoi_solid_angles(&dirs)?;

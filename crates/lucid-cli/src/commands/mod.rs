@@ -5,6 +5,7 @@ mod brdf;
 pub(crate) mod brdf_neural;
 mod convert;
 pub mod demo;
+mod dual;
 mod envmap;
 mod eval;
 mod export_web;
@@ -57,6 +58,7 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         },
         Command::Brdf(args) => brdf::run(args.command),
         Command::Lightstage(args) => lightstage::run(args.command),
+        Command::Dual(args) => dual::run(args),
     }
 }
 
