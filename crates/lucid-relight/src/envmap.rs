@@ -52,16 +52,16 @@ pub fn lookup(map: &Image, d: Vec3) -> [f32; 3] {
     out
 }
 
-/// The mirror-ball view: the camera on +Y looks at a mirrored sphere along −Y, image right
-/// is +X and image up +Z. The direction a ball pixel at `(s, t) ∈ [−1,1]²` (right, up)
-/// reflects, or `None` outside the ball.
+/// The mirror-ball view: a camera far out on +Y looks at a mirrored sphere along −Y with +Z
+/// up, so image right is −X (as a photograph or a render from there has it). The direction a
+/// ball pixel at `(s, t) ∈ [−1,1]²` (right, up) reflects, or `None` outside the ball.
 pub fn mirror_ball_direction(s: f32, t: f32) -> Option<Vec3> {
     let r2 = s * s + t * t;
     if r2 > 1.0 {
         return None;
     }
     // Normal towards the camera (+Y); the view ray travels along −Y.
-    let n = Vec3::new(s, (1.0 - r2).sqrt(), t);
+    let n = Vec3::new(-s, (1.0 - r2).sqrt(), t);
     let view = Vec3::new(0.0, -1.0, 0.0);
     Some((view - 2.0 * view.dot(n) * n).normalize())
 }
@@ -71,7 +71,7 @@ pub fn mirror_ball_coords(d: Vec3) -> (f32, f32) {
     // The normal halves the angle between the reflected direction and the way back to the
     // camera (+Y).
     let n = (d.normalize() + Vec3::Y).try_normalize().unwrap_or(Vec3::X);
-    (n.x, n.z)
+    (-n.x, n.z)
 }
 
 /// A lat-long map (`width × width/2`) from a mirror-ball image (the ball filling the square
