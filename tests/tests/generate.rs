@@ -262,6 +262,11 @@ fn rig_files_set_options_and_the_command_line_wins() {
     assert_eq!(spheres[0]["kind"].as_str(), Some("chrome"));
     assert!((spheres[0]["radius"].as_float().unwrap() - 0.2).abs() < 1e-6);
     assert_eq!(spheres[1]["kind"].as_str(), Some("diffuse"));
+    // A capture records its spheres too.
+    let args = ["gen", "studio", "--rig", "capture", "--images", "2", "--res", "16", "--spp", "1", "-o", "c"];
+    lucid_in(dir.path(), &[&args[..], &["--reference-sphere", "diffuse"]].concat()).success();
+    let record = std::fs::read_to_string(dir.path().join("c/dataset.toml")).unwrap();
+    assert!(record.contains("kind = \"diffuse\""), "{record}");
     std::fs::write(dir.path().join("bad.toml"), "type = \"olat\"\nreference_spheres = [\"glass\"]\n").unwrap();
     lucid_in(dir.path(), &["gen", "studio", "--rig", "bad.toml", "-o", "b"]).failure(&["bad.toml", "glass"]);
     // Every shipped rig file works (shrunk from the command line to stay quick).

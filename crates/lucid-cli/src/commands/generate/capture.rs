@@ -10,6 +10,7 @@ use lucid_scene::LensDistortion;
 use serde::Serialize;
 
 use crate::cli::GenArgs;
+use lucid_datasets_gen::reference_spheres::ReferenceSphere;
 
 /// What `dataset.toml` records for a capture.
 #[derive(Serialize)]
@@ -32,9 +33,12 @@ struct CaptureRecord<'a> {
     position_noise: f32,
     point_noise: f32,
     points: usize,
+    /// Last: arrays of tables follow plain keys in TOML.
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    reference_spheres: &'a [ReferenceSphere],
 }
 
-pub fn run(args: &GenArgs, loaded: lucid_trace::LoadedScene) -> anyhow::Result<()> {
+pub fn run(args: &GenArgs, loaded: lucid_trace::LoadedScene, spheres: &[ReferenceSphere]) -> anyhow::Result<()> {
     let height = args.height.unwrap_or(args.res);
     if height == 0 || height > 8192 {
         bail!("--height {height} must be in 1..=8192");
@@ -89,6 +93,7 @@ pub fn run(args: &GenArgs, loaded: lucid_trace::LoadedScene) -> anyhow::Result<(
         position_noise: args.position_noise,
         point_noise: args.point_noise,
         points: args.points,
+        reference_spheres: spheres,
     };
     let toml_text = toml::to_string_pretty(&record).context("serialising dataset.toml")?;
     super::refuse_foreign_folder(&args.output)?;

@@ -125,7 +125,7 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     crate::commands::override_samples(&mut loaded.settings, args.spp, args.seed)?;
     crate::commands::override_integrator(&mut loaded, args.integrator, &args.scene)?;
     if let RigArg::Capture = rig {
-        return capture::run(&args, loaded);
+        return capture::run(&args, loaded, &spheres);
     }
     let orbit = OrbitRig {
         radius: args.radius,
