@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
-use lucid_trace::{LoadedScene, load_scene, parse_scene};
+use lucid_trace::{LoadedScene, parse_scene};
 
 use crate::PathTracedScene;
 use crate::rig::{OrbitRig, Rig};
@@ -52,10 +52,6 @@ pub const BENCHMARK_SCENES: [&str; 2] = ["trophy", "toys"];
 
 /// A scene by file path, or by built-in name.
 pub fn load_named_scene(scene: &str) -> Result<LoadedScene, GenError> {
-    let path = Path::new(scene);
-    if path.is_file() {
-        return Ok(load_scene(path)?);
-    }
     let (text, path) = named_scene_text(scene)?;
     Ok(parse_scene(&text, &path)?)
 }

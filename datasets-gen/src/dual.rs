@@ -135,16 +135,20 @@ pub fn capture(
     } else {
         let b = dual.block.max(1);
         let (bm, bn) = (m.div_ceil(b), n.div_ceil(b));
-        let block_pixels = |k: usize| -> Vec<usize> {
-            let (bx, by) = (k % bm, k / bm);
-            (by * b..((by + 1) * b).min(n))
-                .flat_map(|y| (bx * b..((bx + 1) * b).min(m)).map(move |x| y * m + x))
-                .collect()
-        };
+        // The projector pixels of each block (blocks at the right and bottom edges may be
+        // smaller).
+        let blocks: Vec<Vec<usize>> = (0..bm * bn)
+            .map(|k| {
+                let (bx, by) = (k % bm, k / bm);
+                (by * b..((by + 1) * b).min(n))
+                    .flat_map(|y| (bx * b..((bx + 1) * b).min(m)).map(move |x| y * m + x))
+                    .collect()
+            })
+            .collect();
         // Each block's footprint: the camera pixels it lights above the threshold.
         let mut footprints: Vec<Vec<usize>> = Vec::with_capacity(bm * bn);
-        for k in 0..bm * bn {
-            let image = render_pattern(scene, camera, settings, projector, &block_pixels(k), next_seed())?;
+        for block in &blocks {
+            let image = render_pattern(scene, camera, settings, projector, block, next_seed())?;
             renders += 1;
             progress(renders, bm * bn);
             let values: Vec<f32> = (0..cw * ch).map(|i| rgb(image.get(i % cw, i / cw)).max_element()).collect();
@@ -180,7 +184,7 @@ pub fn capture(
                 // The pixel at `offset` within each member block (blocks at the edge may be
                 // smaller).
                 let lit: Vec<(usize, usize)> =
-                    members.iter().filter_map(|&k| block_pixels(k).get(offset).map(|&j| (k, j))).collect();
+                    members.iter().filter_map(|&k| blocks[k].get(offset).map(|&j| (k, j))).collect();
                 if lit.is_empty() {
                     continue;
                 }

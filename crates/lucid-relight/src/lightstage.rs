@@ -14,6 +14,7 @@
 
 use glam::Vec3;
 use lucid_image::Image;
+use lucid_image::color::luminance;
 use lucid_scene::{Camera, PinholeCamera};
 
 /// A chrome reference sphere in world space.
@@ -59,10 +60,6 @@ fn hit(origin: Vec3, dir: Vec3, sphere: &ChromeSphere) -> Option<f32> {
     }
     let t = -b - disc.sqrt();
     (t > 0.0).then_some(t)
-}
-
-fn luminance(p: [f32; 4]) -> f32 {
-    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
 }
 
 /// A pixel of the sphere: where its centre ray meets the sphere, and what it reflects.
@@ -130,7 +127,10 @@ pub fn find_highlight(
             pixels.push(SpherePixel {
                 x,
                 y,
-                value: luminance(image.get(x as usize, y as usize)),
+                value: {
+                    let p = image.get(x as usize, y as usize);
+                    luminance([p[0], p[1], p[2]])
+                },
                 t,
                 reflected: d - 2.0 * d.dot(n) * n,
                 facing,

@@ -7,6 +7,8 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
+use lucid_image::color::luminance;
+
 use crate::distribution::Distribution1D;
 
 /// A projector: its pose, frustum and image.
@@ -38,10 +40,6 @@ fn corner_solid_angle(x: f32, y: f32) -> f32 {
 pub fn rectangle_solid_angle(a: Vec2, b: Vec2) -> f32 {
     corner_solid_angle(b.x, b.y) - corner_solid_angle(a.x, b.y) - corner_solid_angle(b.x, a.y)
         + corner_solid_angle(a.x, a.y)
-}
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 impl Projector {
@@ -77,11 +75,9 @@ impl Projector {
             by_power: Distribution1D::new(vec![0.0]),
             power: Vec3::ZERO,
         };
-        let weights: Vec<f32> = (0..width * height)
-            .map(|k| luminance(projector.pixels[k]) * projector.pixel_solid_angle(k % width, k / width))
-            .collect();
-        projector.power =
-            (0..width * height).map(|k| projector.pixels[k] * projector.pixel_solid_angle(k % width, k / width)).sum();
+        let omega: Vec<f32> = (0..width * height).map(|k| projector.pixel_solid_angle(k % width, k / width)).collect();
+        let weights: Vec<f32> = projector.pixels.iter().zip(&omega).map(|(p, o)| luminance(p.to_array()) * o).collect();
+        projector.power = projector.pixels.iter().zip(&omega).map(|(p, o)| *p * *o).sum();
         projector.by_power = Distribution1D::new(weights);
         Some(projector)
     }

@@ -7,6 +7,7 @@ use anyhow::Context;
 use lucid_trace::bsdf::measured::MerlTable;
 use lucid_trace::bsdf::measured_pca::{BrdfPca, relative_rms};
 
+use super::refuse_existing;
 use crate::cli::BrdfCommand;
 
 pub fn run(command: BrdfCommand) -> anyhow::Result<()> {
@@ -19,11 +20,6 @@ pub fn run(command: BrdfCommand) -> anyhow::Result<()> {
             super::brdf_neural::fit(&table, &output, &settings)
         }
     }
-}
-
-fn refuse_existing(path: &Path) -> anyhow::Result<()> {
-    anyhow::ensure!(!path.exists(), "{}: already exists (give a new file)", path.display());
-    Ok(())
 }
 
 fn tabulate(scene: &Path, name: &str, output: &Path) -> anyhow::Result<()> {

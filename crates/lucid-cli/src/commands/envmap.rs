@@ -80,7 +80,7 @@ pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
             }
         }
         EnvmapCommand::FixSun { input, sphere, albedo, output, json } => {
-            anyhow::ensure!(!output.exists(), "{}: already exists (give a new file)", output.display());
+            super::refuse_existing(&output)?;
             lucid_image::ImageFormat::from_path(&output)?;
             let map = read_image(&input)?;
             let ball = read_image(&sphere)?;

@@ -12,7 +12,7 @@ use crate::cli::LightstageCommand;
 pub fn run(command: LightstageCommand) -> anyhow::Result<()> {
     let LightstageCommand::Calibrate { dataset, split, spheres, output, json } = command;
     if let Some(out) = &output {
-        anyhow::ensure!(!out.exists(), "{}: already exists (give a new file)", out.display());
+        super::refuse_existing(out)?;
     }
     let spheres: Vec<ChromeSphere> = if spheres.is_empty() {
         chrome_spheres(&dataset)?

@@ -63,6 +63,12 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
 }
 
 /// Applies `--spp` and `--seed` overrides to a scene's render settings.
+/// Refuses to write over `path`: outputs that are files go to new names.
+pub(crate) fn refuse_existing(path: &std::path::Path) -> anyhow::Result<()> {
+    anyhow::ensure!(!path.exists(), "{}: already exists (give a new file)", path.display());
+    Ok(())
+}
+
 pub fn override_samples(
     settings: &mut lucid_trace::RenderSettings,
     spp: Option<u32>,

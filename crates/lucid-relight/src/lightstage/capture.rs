@@ -106,24 +106,19 @@ pub fn calibrate(
             Ok((name.clone(), highlights, f.extras.light_direction))
         })
         .collect::<Result<_, RelightError>>()?;
-    let mut by_light: BTreeMap<(char, u32), CalibratedLight> = BTreeMap::new();
-    let mut highlights: HashMap<String, Vec<Highlight>> = HashMap::new();
+    // Each light's name, recorded direction and highlights, in order of kind and number.
+    let mut by_light = BTreeMap::new();
     for (name, found, truth) in found {
         let key = (name.as_bytes()[0] as char, name[1..].parse().unwrap_or(u32::MAX));
-        let entry = by_light.entry(key).or_insert_with(|| CalibratedLight {
-            name: name.clone(),
-            direction: None,
-            estimates: 0,
-            truth,
-        });
-        entry.estimates += found.len();
-        highlights.entry(name).or_default().extend(found);
+        by_light.entry(key).or_insert_with(|| (name, truth, Vec::new())).2.extend(found);
     }
     Ok(by_light
         .into_values()
-        .map(|mut light| {
-            light.direction = combine(&highlights[&light.name], OUTLIER_DEGREES);
-            light
+        .map(|(name, truth, highlights)| CalibratedLight {
+            name,
+            direction: combine(&highlights, OUTLIER_DEGREES),
+            estimates: highlights.len(),
+            truth,
         })
         .collect())
 }

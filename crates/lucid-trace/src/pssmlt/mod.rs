@@ -57,7 +57,7 @@ impl Default for Metropolis {
 
 /// The scalar a chain's density is proportional to.
 fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+    lucid_image::color::luminance(c.to_array())
 }
 
 /// What one evaluation of the path tracer at a point of primary sample space gives.
