@@ -125,6 +125,9 @@ pub struct TrainConfig {
     /// Fraction of each batch's pixels drawn in proportion to a running estimate of their
     /// loss (instant-ngp's error map, [`crate::error_map`]); the rest uniformly. 0 turns it off.
     pub error_sampling: f32,
+    /// Each training ray passes through a random point of its pixel (true) or its centre,
+    /// where evaluation and rendering cast theirs (false).
+    pub pixel_jitter: bool,
     /// Random seed (initialisation, pixel and jitter sampling).
     pub seed: u64,
     /// Steps between checkpoints (0: only at the end).
@@ -152,6 +155,7 @@ impl Default for TrainConfig {
             eval_background: Background::White,
             min_transmittance: 1e-4,
             error_sampling: 0.5,
+            pixel_jitter: true,
             seed: 0,
             checkpoint_every: 1000,
             log_every: 50,

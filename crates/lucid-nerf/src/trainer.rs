@@ -10,7 +10,8 @@ use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
 use lucid_scene::Dataset;
-use lucid_scene::camera::Camera;
+use lucid_scene::camera::{Camera, PinholeCamera};
+use lucid_scene::ray::Ray;
 use lucid_scene::sampling::{Rng, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
@@ -163,6 +164,13 @@ pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     let adam = FusedAdam { beta1: t.beta1, beta2: t.beta2, epsilon: t.epsilon, weight_decay: 0.0 };
     let mlp = FusedAdam { weight_decay: t.weight_decay, ..adam.clone() };
     ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
+}
+
+/// The training ray of pixel `(x, y)`: through a random point of its area when `jitter`,
+/// else through its centre as evaluation casts it.
+fn training_ray(camera: &PinholeCamera, x: usize, y: usize, jitter: bool, rng: &mut Rng) -> Ray {
+    let (jx, jy) = if jitter { (rng.uniform(), rng.uniform()) } else { (0.5, 0.5) };
+    camera.generate_ray(x as f32 + jx, y as f32 + jy, Vec2::ZERO)
 }
 
 /// Draws of another pixel before a ray whose pixel is masked out is given up.
@@ -336,7 +344,7 @@ impl NerfTrainer {
             }
             let w = data.size(img).0;
             let (x, y) = (k % w, k / w);
-            let ray = data.cameras[img].generate_ray(x as f32 + rng.uniform(), y as f32 + rng.uniform(), Vec2::ZERO);
+            let ray = training_ray(&data.cameras[img], x, y, cfg.pixel_jitter, &mut rng);
             rays.push((ray.origin, ray.direction));
             targets.push(data.pixels[img][k]);
             picked.push((img, k));
@@ -504,6 +512,25 @@ impl NerfTrainer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn training_rays_pass_through_the_pixel_centre_or_a_point_of_its_area() {
+        let pose = lucid_scene::camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y);
+        let camera = PinholeCamera::new(lucid_scene::camera::Intrinsics::from_fov_x(64, 48, 0.7), pose);
+        let mut rng = Rng::new(3, 4);
+        let centre = camera.generate_ray(10.5, 20.5, Vec2::ZERO);
+        let ray = training_ray(&camera, 10, 20, false, &mut rng);
+        assert_eq!((ray.origin, ray.direction), (centre.origin, centre.direction));
+        // Jittered rays spread over the pixel: their directions span about one pixel's angle
+        // around the centre's and never more.
+        let pixel = camera.generate_ray(11.5, 20.5, Vec2::ZERO).direction.angle_between(centre.direction);
+        let mut widest = 0f32;
+        for _ in 0..200 {
+            let ray = training_ray(&camera, 10, 20, true, &mut rng);
+            widest = widest.max(ray.direction.angle_between(centre.direction));
+        }
+        assert!(widest > 0.5 * pixel && widest <= 0.71 * pixel + 1e-6, "{widest} vs pixel {pixel}");
+    }
 
     #[test]
     fn rows_are_gathered_across_rounds_by_their_overall_index() {
