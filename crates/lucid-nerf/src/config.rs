@@ -128,6 +128,9 @@ pub struct TrainConfig {
     /// Each training ray passes through a random point of its pixel (true) or its centre,
     /// where evaluation and rendering cast theirs (false).
     pub pixel_jitter: bool,
+    /// Weight of mip-NeRF 360's distortion loss (distances in scene-box diagonals), which
+    /// draws each ray's weight together into a sharp surface; 0 turns it off.
+    pub distortion: f32,
     /// Random seed (initialisation, pixel and jitter sampling).
     pub seed: u64,
     /// Steps between checkpoints (0: only at the end).
@@ -156,6 +159,7 @@ impl Default for TrainConfig {
             min_transmittance: 1e-4,
             error_sampling: 0.5,
             pixel_jitter: true,
+            distortion: 0.0,
             seed: 0,
             checkpoint_every: 1000,
             log_every: 50,
@@ -259,6 +263,9 @@ impl NerfConfig {
         if !(t.min_transmittance.is_finite() && (0.0..1.0).contains(&t.min_transmittance)) {
             return Err(format!("train.min_transmittance must be in [0, 1), got {}", t.min_transmittance));
         }
+        if !(t.distortion.is_finite() && t.distortion >= 0.0) {
+            return Err(format!("train.distortion must be zero or positive, got {}", t.distortion));
+        }
         if !(t.error_sampling.is_finite() && (0.0..=1.0).contains(&t.error_sampling)) {
             return Err(format!("train.error_sampling must be in [0, 1], got {}", t.error_sampling));
         }
@@ -295,6 +302,8 @@ mod tests {
         assert!(err.contains("bad.toml") && err.contains("train.learning_rate"), "{err}");
         let err = NerfConfig::from_toml("[train]\nstepz = 3\n", "bad.toml").unwrap_err();
         assert!(err.contains("bad.toml") && err.contains("stepz"), "{err}");
+        let err = NerfConfig::from_toml("[train]\ndistortion = -0.1\n", "d.toml").unwrap_err();
+        assert!(err.contains("d.toml") && err.contains("train.distortion"), "{err}");
         let err = NerfConfig::from_toml("[field.grid]\nlevels = 0\n", "g.toml").unwrap_err();
         assert!(err.contains("levels"), "{err}");
     }

@@ -18,7 +18,9 @@ use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extensi
 use burn::tensor::{Tensor, TensorData};
 
 use crate::field::FieldConfig;
-use crate::render::composite::{PackedSamples, RAY_OUTPUTS, composite_backward, composite_forward};
+use crate::render::composite::{
+    PackedSamples, RAY_OUTPUTS, add_distortion_gradient, composite_backward, composite_forward,
+};
 use lucid_burn::{constant, to_host};
 
 /// Compositing parameters that travel with the op.
@@ -28,6 +30,9 @@ pub struct CompositeArgs {
     pub samples: Arc<PackedSamples>,
     /// Rays stop once transmittance falls below this.
     pub min_transmittance: f32,
+    /// Weight of the rays' summed distortion loss in the loss being differentiated (0: none);
+    /// it enters only the backward ([`crate::render::composite::add_distortion_gradient`]).
+    pub distortion: f32,
 }
 
 /// The NeRF field and compositing as backend operations.
@@ -163,6 +168,9 @@ pub trait NerfOps: Backend {
         let (raw, out, grad) = (to_host::<Self>(raw), to_host::<Self>(out), to_host::<Self>(grad_out));
         let mut g = vec![0.0; raw.len()];
         composite_backward(&args.samples, &raw, &out, &grad, args.min_transmittance, &mut g);
+        if args.distortion > 0.0 {
+            add_distortion_gradient(&args.samples, &raw, args.distortion, args.min_transmittance, &mut g);
+        }
         Self::float_from_data(TensorData::new(g, [raw.len() / 4, 4]), &device)
     }
 }
@@ -202,7 +210,7 @@ mod flex_impl {
     use burn::tensor::TensorData;
 
     use super::{CompositeArgs, FieldConfig, NerfOps};
-    use crate::render::composite::{RAY_OUTPUTS, composite_backward, composite_forward};
+    use crate::render::composite::{RAY_OUTPUTS, add_distortion_gradient, composite_backward, composite_forward};
     use lucid_burn::values;
 
     fn tensor<const N: usize>(v: Vec<f32>, shape: [usize; N]) -> FlexTensor {
@@ -326,6 +334,9 @@ mod flex_impl {
             let raw = values(&raw);
             let mut g = vec![0.0; raw.len()];
             composite_backward(&args.samples, &raw, &values(&out), &values(&grad_out), args.min_transmittance, &mut g);
+            if args.distortion > 0.0 {
+                add_distortion_gradient(&args.samples, &raw, args.distortion, args.min_transmittance, &mut g);
+            }
             tensor(g, [raw.len() / 4, 4])
         }
     }
@@ -587,8 +598,10 @@ pub fn field_density(positions: Tensor<2>, table: Tensor<2>, mlp: Tensor<1>, con
 }
 
 /// Composites `raw` (`S×4`) along packed rays into `R×5` (`r, g, b, opacity, depth`),
-/// differentiable with respect to `raw`.
-pub fn composite(raw: Tensor<2>, samples: Arc<PackedSamples>, min_transmittance: f32) -> Tensor<2> {
-    let out = <Dispatch as NerfOps>::composite(raw.into_dispatch(), CompositeArgs { samples, min_transmittance });
+/// differentiable with respect to `raw`; the gradient also carries `distortion` times the
+/// rays' summed distortion loss.
+pub fn composite(raw: Tensor<2>, samples: Arc<PackedSamples>, min_transmittance: f32, distortion: f32) -> Tensor<2> {
+    let args = CompositeArgs { samples, min_transmittance, distortion };
+    let out = <Dispatch as NerfOps>::composite(raw.into_dispatch(), args);
     Tensor::from_dispatch(out)
 }

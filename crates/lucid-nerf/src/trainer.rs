@@ -405,7 +405,10 @@ impl NerfTrainer {
         );
         let raw = self.model.field_from_density(pos, dir, density, self.config.field);
         lap(&mut timings.field);
-        let out = ops::composite(raw, Arc::new(batch.samples), cfg.min_transmittance);
+        // The distortion loss's mean over the rays, its distances in box diagonals.
+        let (lo, hi) = self.grid.bounds();
+        let distortion = cfg.distortion / (kept.max(1) as f32 * (hi - lo).length());
+        let out = ops::composite(raw, Arc::new(batch.samples), cfg.min_transmittance, distortion);
         let rgb = out.clone().slice([0..kept, 0..3]);
         let opacity = out.slice([0..kept, 3..4]);
         let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept, 3]), device);

@@ -84,7 +84,7 @@ fn burn_loss(
     }
     let raw =
         field(tensor(&c.pos, [s, 3], device), tensor(&c.dir, [s, 3], device), table.clone(), mlp.clone(), config());
-    let out = composite(raw, c.samples.clone(), 0.0);
+    let out = composite(raw, c.samples.clone(), 0.0, 0.0);
     let w = tensor(&c.weights, [c.samples.rays(), 5], device);
     ((out * w).sum(), table, mlp)
 }
