@@ -35,6 +35,26 @@ pub struct CompositeArgs {
     pub distortion: f32,
 }
 
+impl CompositeArgs {
+    /// The op's forward on host values: `R×5` (`r, g, b, opacity, depth`).
+    fn forward(&self, raw: &[f32]) -> Vec<f32> {
+        let mut out = vec![0.0; self.samples.rays() * RAY_OUTPUTS];
+        composite_forward(&self.samples, raw, self.min_transmittance, &mut out);
+        out
+    }
+
+    /// The op's backward on host values: `∂loss/∂raw` (`S×4`) from `∂loss/∂out` and the
+    /// forward's `out`, with the weighted distortion loss's gradient added.
+    fn backward(&self, raw: &[f32], out: &[f32], grad_out: &[f32]) -> Vec<f32> {
+        let mut g = vec![0.0; raw.len()];
+        composite_backward(&self.samples, raw, out, grad_out, self.min_transmittance, &mut g);
+        if self.distortion > 0.0 {
+            add_distortion_gradient(&self.samples, raw, self.distortion, self.min_transmittance, &mut g);
+        }
+        g
+    }
+}
+
 /// The NeRF field and compositing as backend operations.
 #[backend_extension(
     Flex: cfg(feature = "flex"),
@@ -151,9 +171,7 @@ pub trait NerfOps: Backend {
     /// Composites `raw` (`S×4`) into `R×5` (`r, g, b, opacity, depth`).
     fn composite(raw: FloatTensor<Self>, args: CompositeArgs) -> FloatTensor<Self> {
         let device = raw.device();
-        let raw = to_host::<Self>(raw);
-        let mut out = vec![0.0; args.samples.rays() * RAY_OUTPUTS];
-        composite_forward(&args.samples, &raw, args.min_transmittance, &mut out);
+        let out = args.forward(&to_host::<Self>(raw));
         Self::float_from_data(TensorData::new(out, [args.samples.rays(), RAY_OUTPUTS]), &device)
     }
 
@@ -166,11 +184,7 @@ pub trait NerfOps: Backend {
     ) -> FloatTensor<Self> {
         let device = raw.device();
         let (raw, out, grad) = (to_host::<Self>(raw), to_host::<Self>(out), to_host::<Self>(grad_out));
-        let mut g = vec![0.0; raw.len()];
-        composite_backward(&args.samples, &raw, &out, &grad, args.min_transmittance, &mut g);
-        if args.distortion > 0.0 {
-            add_distortion_gradient(&args.samples, &raw, args.distortion, args.min_transmittance, &mut g);
-        }
+        let g = args.backward(&raw, &out, &grad);
         Self::float_from_data(TensorData::new(g, [raw.len() / 4, 4]), &device)
     }
 }
@@ -210,7 +224,7 @@ mod flex_impl {
     use burn::tensor::TensorData;
 
     use super::{CompositeArgs, FieldConfig, NerfOps};
-    use crate::render::composite::{RAY_OUTPUTS, add_distortion_gradient, composite_backward, composite_forward};
+    use crate::render::composite::RAY_OUTPUTS;
     use lucid_burn::values;
 
     fn tensor<const N: usize>(v: Vec<f32>, shape: [usize; N]) -> FlexTensor {
@@ -325,19 +339,12 @@ mod flex_impl {
         }
 
         fn composite(raw: FlexTensor, args: CompositeArgs) -> FlexTensor {
-            let mut out = vec![0.0; args.samples.rays() * RAY_OUTPUTS];
-            composite_forward(&args.samples, &values(&raw), args.min_transmittance, &mut out);
-            tensor(out, [args.samples.rays(), RAY_OUTPUTS])
+            tensor(args.forward(&values(&raw)), [args.samples.rays(), RAY_OUTPUTS])
         }
 
         fn composite_grad(raw: FlexTensor, out: FlexTensor, grad_out: FlexTensor, args: CompositeArgs) -> FlexTensor {
             let raw = values(&raw);
-            let mut g = vec![0.0; raw.len()];
-            composite_backward(&args.samples, &raw, &values(&out), &values(&grad_out), args.min_transmittance, &mut g);
-            if args.distortion > 0.0 {
-                add_distortion_gradient(&args.samples, &raw, args.distortion, args.min_transmittance, &mut g);
-            }
-            tensor(g, [raw.len() / 4, 4])
+            tensor(args.backward(&raw, &values(&out), &values(&grad_out)), [raw.len() / 4, 4])
         }
     }
 }
