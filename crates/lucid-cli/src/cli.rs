@@ -395,6 +395,10 @@ pub struct EvalArgs {
     /// (`aperture_radius`, `focus_distance`) for it.
     #[arg(long)]
     pub pinhole: bool,
+    /// NeRF checkpoints: rays per pixel, on a regular grid over its area, averaged (default:
+    /// the run's `train.eval_pixel_rays`).
+    #[arg(long)]
+    pub pixel_rays: Option<usize>,
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -726,6 +730,10 @@ pub struct RenderArgs {
     /// Checkpoints: rays per pixel over the lens.
     #[arg(long, default_value_t = 32)]
     pub lens_rays: usize,
+    /// NeRF checkpoints: rays per pixel, on a regular grid over its area, averaged (default:
+    /// the run's `train.eval_pixel_rays`).
+    #[arg(long)]
+    pub pixel_rays: Option<usize>,
 }
 
 /// Camera paths for rendering trained models.

@@ -45,6 +45,22 @@ impl LoadedModel {
         })
     }
 
+    /// Renders a NeRF with `rays` rays per pixel over its area (`None`: the run's own
+    /// setting); an error for other models or a count out of range, naming `flag`.
+    pub fn set_pixel_rays(&mut self, rays: Option<usize>, flag: &str) -> anyhow::Result<()> {
+        let Some(rays) = rays else { return Ok(()) };
+        match self {
+            Self::Nerf(t) => {
+                anyhow::ensure!((1..=64).contains(&rays), "{flag} must be in 1..=64, got {rays}");
+                t.config.train.eval_pixel_rays = rays;
+                Ok(())
+            }
+            // Splats are drawn by area already: each Gaussian is integrated over the pixel's
+            // low-pass footprint.
+            Self::Splat(_) => bail!("{flag} applies to NeRF checkpoints; this one holds splats"),
+        }
+    }
+
     /// The model, borrowed.
     pub fn model(&self) -> ModelRef<'_> {
         match self {

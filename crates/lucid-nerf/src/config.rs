@@ -128,6 +128,15 @@ pub struct TrainConfig {
     /// Each training ray passes through a random point of its pixel (true) or its centre,
     /// where evaluation and rendering cast theirs (false).
     pub pixel_jitter: bool,
+    /// Rays per training pixel, spread over its area (a square grid of cells, each ray at a
+    /// random point of its cell with `pixel_jitter`), whose colours are averaged before the
+    /// loss: the truth of a pixel is the mean over its area, which one ray can only match
+    /// on average.
+    pub pixel_rays: usize,
+    /// Rays per pixel when evaluating and rendering, on a regular grid over the pixel's area
+    /// and averaged: the truth of a pixel is its area's mean, which one ray through the
+    /// centre only approximates where an edge or fine texture crosses it.
+    pub eval_pixel_rays: usize,
     /// Weight of mip-NeRF 360's distortion loss (distances in scene-box diagonals), which
     /// draws each ray's weight together into a sharp surface; 0 turns it off.
     pub distortion: f32,
@@ -159,6 +168,8 @@ impl Default for TrainConfig {
             min_transmittance: 1e-4,
             error_sampling: 0.5,
             pixel_jitter: true,
+            pixel_rays: 1,
+            eval_pixel_rays: 1,
             distortion: 0.0,
             seed: 0,
             checkpoint_every: 1000,
@@ -268,6 +279,12 @@ impl NerfConfig {
         }
         if !(t.error_sampling.is_finite() && (0.0..=1.0).contains(&t.error_sampling)) {
             return Err(format!("train.error_sampling must be in [0, 1], got {}", t.error_sampling));
+        }
+        if !(1..=64).contains(&t.pixel_rays) {
+            return Err(format!("train.pixel_rays must be in 1..=64, got {}", t.pixel_rays));
+        }
+        if !(1..=64).contains(&t.eval_pixel_rays) {
+            return Err(format!("train.eval_pixel_rays must be in 1..=64, got {}", t.eval_pixel_rays));
         }
         if t.eval_background == Background::Random {
             return Err("train.eval_background must be white or black".into());

@@ -12,7 +12,7 @@ use glam::{Vec2, Vec3};
 use lucid_scene::Dataset;
 use lucid_scene::camera::{Camera, PinholeCamera};
 use lucid_scene::ray::Ray;
-use lucid_scene::sampling::{Rng, mix};
+use lucid_scene::sampling::{Rng, grid_cell_point, mix};
 
 use crate::config::{Background, Loss, NerfConfig};
 use crate::data::{ImageSet, ViewInfo, scene_box};
@@ -166,11 +166,21 @@ pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
-/// The training ray of pixel `(x, y)`: through a random point of its area when `jitter`,
-/// else through its centre as evaluation casts it.
-fn training_ray(camera: &PinholeCamera, x: usize, y: usize, jitter: bool, rng: &mut Rng) -> Ray {
-    let (jx, jy) = if jitter { (rng.uniform(), rng.uniform()) } else { (0.5, 0.5) };
-    camera.generate_ray(x as f32 + jx, y as f32 + jy, Vec2::ZERO)
+/// Training ray `j` of the `n` cast through pixel `(x, y)`: through the centre of the `j`-th
+/// of `n` cells tiling the pixel (its centre for `n = 1`), or, when `jitter`, through a random
+/// point of that cell, so that `n` rays spread over the pixel's area as the truth's pixel
+/// filter does.
+fn training_ray(
+    camera: &PinholeCamera,
+    x: usize,
+    y: usize,
+    (j, n): (usize, usize),
+    jitter: bool,
+    rng: &mut Rng,
+) -> Ray {
+    let offset = if jitter { Vec2::new(rng.uniform(), rng.uniform()) } else { Vec2::splat(0.5) };
+    let p = grid_cell_point(j, n, offset);
+    camera.generate_ray(x as f32 + p.x, y as f32 + p.y, Vec2::ZERO)
 }
 
 /// Draws of another pixel before a ray whose pixel is masked out is given up.
@@ -329,7 +339,9 @@ impl NerfTrainer {
                 (img, k)
             }
         };
-        for _ in 0..n_rays {
+        // Each pixel's rays (`train.pixel_rays` of them) are averaged before the loss.
+        let per_pixel = cfg.pixel_rays.max(1);
+        for _ in 0..(n_rays / per_pixel).max(1) {
             let (mut img, mut k) = pick(&mut rng);
             // A masked pixel teaches nothing: draw again, a bounded number of times so that
             // views masked almost entirely cannot stall the step (unmasked sets draw once).
@@ -344,10 +356,12 @@ impl NerfTrainer {
             }
             let w = data.size(img).0;
             let (x, y) = (k % w, k / w);
-            let ray = training_ray(&data.cameras[img], x, y, cfg.pixel_jitter, &mut rng);
-            rays.push((ray.origin, ray.direction));
-            targets.push(data.pixels[img][k]);
-            picked.push((img, k));
+            for j in 0..per_pixel {
+                let ray = training_ray(&data.cameras[img], x, y, (j, per_pixel), cfg.pixel_jitter, &mut rng);
+                rays.push((ray.origin, ray.direction));
+                targets.push(data.pixels[img][k]);
+                picked.push((img, k));
+            }
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
         let marcher = self.marcher();
@@ -382,19 +396,26 @@ impl NerfTrainer {
         let wanted = batch_samples as f32 / per_ray;
         self.rays_per_batch = 0.8 * self.rays_per_batch + 0.2 * wanted.min(4.0 * n_rays as f32);
 
-        let backgrounds: Vec<[f32; 3]> = (0..kept)
+        // Only whole pixels enter the loss: the rays of a pixel the cut split get no gradient.
+        let pixels = kept / per_pixel;
+        let kept_rays = pixels * per_pixel;
+        let backgrounds: Vec<[f32; 3]> = (0..pixels)
             .map(|_| match cfg.background {
                 Background::White => [1.0; 3],
                 Background::Black => [0.0; 3],
                 Background::Random => [rng.uniform(), rng.uniform(), rng.uniform()],
             })
             .collect();
-        let target: Vec<f32> = targets[..kept]
+        let target: Vec<f32> = backgrounds
             .iter()
-            .zip(&backgrounds)
-            .flat_map(|(p, bg)| (0..3).map(move |c| p[c] * p[3] + bg[c] * (1.0 - p[3])))
+            .enumerate()
+            .flat_map(|(i, bg)| {
+                let p = targets[i * per_pixel];
+                (0..3).map(move |c| p[c] * p[3] + bg[c] * (1.0 - p[3]))
+            })
             .collect();
-        let bg: Vec<f32> = backgrounds.iter().flatten().copied().collect();
+        let bg: Vec<f32> =
+            backgrounds.iter().flat_map(|b| std::iter::repeat_n(b, per_pixel)).flatten().copied().collect();
         let device = &self.device;
         let pos = Tensor::<2>::from_data(TensorData::new(batch.positions, [s, 3]), device);
         let dir = Tensor::<2>::from_data(TensorData::new(batch.directions, [s, 3]), device);
@@ -409,17 +430,20 @@ impl NerfTrainer {
         let (lo, hi) = self.grid.bounds();
         let distortion = cfg.distortion / (kept.max(1) as f32 * (hi - lo).length());
         let out = ops::composite(raw, Arc::new(batch.samples), cfg.min_transmittance, distortion);
-        let rgb = out.clone().slice([0..kept, 0..3]);
-        let opacity = out.slice([0..kept, 3..4]);
-        let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept, 3]), device);
-        let target = Tensor::<2>::from_data(TensorData::new(target, [kept, 3]), device);
-        let pred = rgb + (opacity.neg() + 1.0) * bg;
+        let rgb = out.clone().slice([0..kept_rays, 0..3]);
+        let opacity = out.slice([0..kept_rays, 3..4]);
+        let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept_rays, 3]), device);
+        let target = Tensor::<2>::from_data(TensorData::new(target, [pixels, 3]), device);
+        let mut pred = rgb + (opacity.neg() + 1.0) * bg;
+        if per_pixel > 1 {
+            pred = pred.reshape([pixels, per_pixel, 3]).mean_dim(1).reshape([pixels, 3]);
+        }
         let diff = pred - target;
         let squared = diff.clone().square();
         let mse = squared.clone().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
         if let Some(map) = &mut self.error_map {
             let per_ray = squared.sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
-            for (&(img, k), &e) in picked[..kept].iter().zip(&per_ray) {
+            for (&(img, k), &e) in picked.iter().step_by(per_pixel).zip(&per_ray) {
                 map.record(map.block_of(img, k), e);
             }
             map.rebuild();
@@ -503,6 +527,7 @@ impl NerfTrainer {
             min_transmittance: self.config.train.min_transmittance,
             background,
             device: crate::backend::default_device(),
+            pixel_rays: self.config.train.eval_pixel_rays,
         }
     }
 
@@ -522,17 +547,42 @@ mod tests {
         let camera = PinholeCamera::new(lucid_scene::camera::Intrinsics::from_fov_x(64, 48, 0.7), pose);
         let mut rng = Rng::new(3, 4);
         let centre = camera.generate_ray(10.5, 20.5, Vec2::ZERO);
-        let ray = training_ray(&camera, 10, 20, false, &mut rng);
+        let ray = training_ray(&camera, 10, 20, (0, 1), false, &mut rng);
         assert_eq!((ray.origin, ray.direction), (centre.origin, centre.direction));
         // Jittered rays spread over the pixel: their directions span about one pixel's angle
         // around the centre's and never more.
         let pixel = camera.generate_ray(11.5, 20.5, Vec2::ZERO).direction.angle_between(centre.direction);
         let mut widest = 0f32;
         for _ in 0..200 {
-            let ray = training_ray(&camera, 10, 20, true, &mut rng);
+            let ray = training_ray(&camera, 10, 20, (0, 1), true, &mut rng);
             widest = widest.max(ray.direction.angle_between(centre.direction));
         }
         assert!(widest > 0.5 * pixel && widest <= 0.71 * pixel + 1e-6, "{widest} vs pixel {pixel}");
+    }
+
+    #[test]
+    fn a_pixels_rays_each_pass_through_their_own_cell_of_it() {
+        let pose = lucid_scene::camera::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y);
+        let camera = PinholeCamera::new(lucid_scene::camera::Intrinsics::from_fov_x(64, 48, 0.7), pose);
+        let world_to_camera = camera.camera_to_world.inverse();
+        // Where a ray crosses the image plane, in pixels.
+        let image_point =
+            |ray: Ray| camera.intrinsics.project(world_to_camera.transform_point3(ray.origin + ray.direction)).unwrap();
+        let mut rng = Rng::new(5, 6);
+        for jitter in [false, true] {
+            for j in 0..9 {
+                for _ in 0..20 {
+                    let p =
+                        image_point(training_ray(&camera, 10, 20, (j, 9), jitter, &mut rng)) - Vec2::new(10.0, 20.0);
+                    let cell = Vec2::new((j % 3) as f32, (j / 3) as f32) / 3.0;
+                    let inside = p - cell;
+                    assert!(inside.min_element() >= -1e-3 && inside.max_element() <= 1.0 / 3.0 + 1e-3, "{j}: {p}");
+                    if !jitter {
+                        assert!((inside - Vec2::splat(1.0 / 6.0)).length() < 1e-3, "{j}: {p} is not its cell's centre");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

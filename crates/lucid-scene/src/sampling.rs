@@ -70,6 +70,17 @@ pub fn stratified_square(k: usize, n: usize, seed: u64) -> Vec2 {
     (cell + offset) / side as f32
 }
 
+/// The point at `offset ∈ [0,1)²` within cell `k` of a grid over the unit square with ⌈√n⌉
+/// columns and ⌈n / columns⌉ rows, row by row (two cells: the left and right halves): where
+/// a pixel's `k`-th of `n` rays passes, `offset` `(½, ½)` for the cell's centre. The `n`
+/// cells tile the square when they fill the rows (n = 1, 2, 4, 6, 9, 12, 16, ...).
+pub fn grid_cell_point(k: usize, n: usize, offset: Vec2) -> Vec2 {
+    let columns = (n.max(1) as f32).sqrt().ceil() as usize;
+    let rows = n.max(1).div_ceil(columns);
+    let cell = Vec2::new((k % columns) as f32, (k / columns) as f32);
+    (cell + offset) / Vec2::new(columns as f32, rows as f32)
+}
+
 /// SplitMix64 finaliser: spreads nearby seeds far apart.
 pub fn mix(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -114,6 +125,27 @@ fn sin_cos_quarter(a: f32) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_cells_tile_the_square_each_once() {
+        for n in [1, 2, 4, 6, 9, 16] {
+            // Each cell's centre, blurred by a quarter cell either way, lands in that cell only:
+            // count how many cells cover each point of a fine lattice.
+            let centres: Vec<Vec2> = (0..n).map(|k| grid_cell_point(k, n, Vec2::splat(0.5))).collect();
+            let lo: Vec<Vec2> = (0..n).map(|k| grid_cell_point(k, n, Vec2::ZERO)).collect();
+            let hi: Vec<Vec2> = (0..n).map(|k| grid_cell_point(k, n, Vec2::ONE)).collect();
+            for c in &centres {
+                assert!(c.min_element() > 0.0 && c.max_element() < 1.0, "{n}: {c}");
+            }
+            for i in 0..40 {
+                for j in 0..40 {
+                    let p = (Vec2::new(i as f32, j as f32) + 0.5) / 40.0;
+                    let covering = (0..n).filter(|&k| p.cmpge(lo[k]).all() && p.cmplt(hi[k]).all()).count();
+                    assert_eq!(covering, 1, "{n} cells: {p} is covered {covering} times");
+                }
+            }
+        }
+    }
 
     #[test]
     fn rng_is_uniform_and_streams_differ() {

@@ -30,7 +30,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         lucid_relight_head::checkpoint::RELIGHT_KIND => return relight(&args, split, &out),
         _ => {}
     }
-    let loaded = LoadedModel::load(&args.checkpoint)?;
+    let mut loaded = LoadedModel::load(&args.checkpoint)?;
+    loaded.set_pixel_rays(args.pixel_rays, "--pixel-rays")?;
     let dataset = Dataset::open_with(&args.dataset, &args.data.options())
         .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if dataset.frames(split).is_empty() {

@@ -7,7 +7,7 @@ use lucid_image::Image;
 use lucid_scene::camera::{Camera, PinholeCamera, ThinLensCamera};
 pub use lucid_scene::evaluation::RenderedView;
 use lucid_scene::evaluation::ViewModel;
-use lucid_scene::sampling::stratified_square;
+use lucid_scene::sampling::{grid_cell_point, stratified_square};
 
 use super::composite::{RAY_OUTPUTS, RayAccumulator};
 use super::march::{MarchState, RayMarcher};
@@ -42,6 +42,8 @@ pub struct ViewRenderer<'a> {
     pub background: [f32; 3],
     /// Device of the model.
     pub device: Device,
+    /// Rays per pixel, spread over its area (stratified) and averaged; 1: its centre.
+    pub pixel_rays: usize,
 }
 
 impl ViewModel for ViewRenderer<'_> {
@@ -78,14 +80,17 @@ impl ViewRenderer<'_> {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let n = w * h;
         let thin = lens.map(|(a, f)| ThinLensCamera::new(*camera, a, f));
-        let per_pixel = if thin.is_some() { rays.max(1) } else { 1 };
+        let lens_rays = if thin.is_some() { rays.max(1) } else { 1 };
+        let per_pixel = lens_rays.max(self.pixel_rays);
         let mut acc = vec![[0f32; RAY_OUTPUTS]; n];
         let mut samples = 0;
         for k in 0..per_pixel {
             let lens_u = stratified_square(k, per_pixel, seed);
+            let offset =
+                if self.pixel_rays > 1 { grid_cell_point(k, per_pixel, Vec2::splat(0.5)) } else { Vec2::splat(0.5) };
             let rays: Vec<(Vec3, Vec3)> = (0..n)
                 .map(|i| {
-                    let (px, py) = ((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+                    let (px, py) = ((i % w) as f32 + offset.x, (i / w) as f32 + offset.y);
                     let ray = match &thin {
                         Some(t) => t.generate_ray(px, py, lens_u),
                         None => camera.generate_ray(px, py, Vec2::ZERO),
@@ -171,11 +176,9 @@ mod tests {
     use burn::module::Param;
     use lucid_scene::sampling::Rng;
 
-    /// Rendering in rounds composites exactly what marching each whole ray, evaluating the
-    /// field on all its samples and compositing them gives: every ray, including those that
-    /// end within a round, gets all its samples up to where it stops.
-    #[test]
-    fn rays_rendered_in_rounds_composite_as_whole_rays() {
+    /// A model of random weights, occupied in a ball (so rays start, jump and end at
+    /// different places), and its marcher.
+    fn random_scene() -> (NerfModel, OccupancyGrid, RayMarcher, FieldConfig) {
         let config = tiny_config();
         let layout = config.layout();
         let device = crate::backend::training_device();
@@ -191,18 +194,75 @@ mod tests {
             )),
             mlp: Param::from_tensor(Tensor::from_data(TensorData::new(mlp, [layout.mlp_params()]), &device)),
         };
-        // Occupied in a ball, so rays start, jump and end at different places.
         let grid = crate::occupancy::grid_occupied_where(16, |c| c.length() < 0.8);
         let marcher = RayMarcher::new(&MarchSettings::default(), 2.0 * 3f32.sqrt(), 0.01, 16);
-        let renderer = ViewRenderer {
-            model: &model,
-            config,
-            grid: &grid,
-            marcher,
+        (model, grid, marcher, config)
+    }
+
+    fn renderer<'a>(
+        scene: &'a (NerfModel, OccupancyGrid, RayMarcher, FieldConfig),
+        pixel_rays: usize,
+    ) -> ViewRenderer<'a> {
+        ViewRenderer {
+            model: &scene.0,
+            config: scene.3,
+            grid: &scene.1,
+            marcher: scene.2,
+            // (A high threshold, so that this small random field stops rays.)
             min_transmittance: 0.5,
             background: [1.0; 3],
-            device: device.clone(),
-        };
+            device: crate::backend::training_device(),
+            pixel_rays,
+        }
+    }
+
+    /// With `n²` rays per pixel a view is the mean of the `n²` views whose rays pass through
+    /// the centres of the cells of an `n × n` grid over each pixel.
+    #[test]
+    fn pixel_rays_average_the_centres_of_a_grid_over_each_pixel() {
+        let scene = random_scene();
+        let pose = lucid_scene::camera::look_at(Vec3::new(0.3, 0.2, 2.5), Vec3::ZERO, Vec3::Y);
+        let camera = PinholeCamera::new(lucid_scene::camera::Intrinsics::from_fov_x(24, 16, 0.9), pose);
+        let view = renderer(&scene, 4).render(&camera);
+        let single = renderer(&scene, 1);
+        let (w, h) = (24, 16);
+        let mut mean = vec![[0f32; RAY_OUTPUTS]; w * h];
+        for (dx, dy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
+            let rays: Vec<(Vec3, Vec3)> = (0..w * h)
+                .map(|i| {
+                    let ray = camera.generate_ray((i % w) as f32 + dx, (i / w) as f32 + dy, Vec2::ZERO);
+                    (ray.origin, ray.direction)
+                })
+                .collect();
+            for (m, o) in mean.iter_mut().zip(single.render_rays(&rays).0.chunks_exact(RAY_OUTPUTS)) {
+                for c in 0..RAY_OUTPUTS {
+                    m[c] += 0.25 * o[c];
+                }
+            }
+        }
+        let mut differs_from_centre = 0;
+        let centre = single.render(&camera);
+        for (i, m) in mean.iter().enumerate() {
+            let p = view.colour.pixels()[i];
+            let expected = [m[0] + 1.0 - m[3], m[1] + 1.0 - m[3], m[2] + 1.0 - m[3], m[3]];
+            for c in 0..4 {
+                assert!((p[c] - expected[c]).abs() < 1e-5, "pixel {i}: {p:?} vs {expected:?}");
+            }
+            differs_from_centre += ((p[3] - centre.colour.pixels()[i][3]).abs() > 1e-3) as usize;
+        }
+        // The scene has edges: somewhere the mean over a pixel is not its centre's ray.
+        assert!(differs_from_centre > 10, "{differs_from_centre} pixels differ from the centre ray's");
+    }
+
+    /// Rendering in rounds composites exactly what marching each whole ray, evaluating the
+    /// field on all its samples and compositing them gives: every ray, including those that
+    /// end within a round, gets all its samples up to where it stops.
+    #[test]
+    fn rays_rendered_in_rounds_composite_as_whole_rays() {
+        let scene = random_scene();
+        let (model, grid, marcher, config) = (&scene.0, &scene.1, scene.2, scene.3);
+        let device = crate::backend::training_device();
+        let renderer = renderer(&scene, 1);
         let mut rng = Rng::new(4, 0);
         let rays: Vec<(Vec3, Vec3)> = (0..500)
             .map(|_| {
@@ -214,7 +274,7 @@ mod tests {
         let mut whole = PackedSamples { offsets: vec![0], ..Default::default() };
         let (mut pos, mut dir) = (Vec::new(), Vec::new());
         for &(o, d) in &rays {
-            marcher.march(o, d, &grid, 0.5, false, &mut whole.t, &mut whole.dt);
+            marcher.march(o, d, grid, 0.5, false, &mut whole.t, &mut whole.dt);
             for &t in &whole.t[*whole.offsets.last().unwrap() as usize..] {
                 pos.extend(((o + t * d - Vec3::splat(-1.0)) * 0.5).to_array());
                 dir.extend(d.to_array());

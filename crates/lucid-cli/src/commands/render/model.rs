@@ -38,7 +38,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.width == Some(0) || args.height == Some(0) {
         bail!("--width and --height must be positive");
     }
-    let loaded = LoadedModel::load(&args.scene)?;
+    let mut loaded = LoadedModel::load(&args.scene)?;
+    loaded.set_pixel_rays(args.pixel_rays, "--pixel-rays")?;
     let frame = loaded.view().frame;
     // Lengths on the command line are the dataset's; the model measures in the scene's.
     let to_scene = |length: f32| frame.map_or(length, |n| length * n.scale as f32);
