@@ -51,7 +51,8 @@ impl LoadedModel {
         let Some(rays) = rays else { return Ok(()) };
         match self {
             Self::Nerf(t) => {
-                anyhow::ensure!((1..=64).contains(&rays), "{flag} must be in 1..=64, got {rays}");
+                let max = lucid_nerf::config::MAX_PIXEL_RAYS;
+                anyhow::ensure!((1..=max).contains(&rays), "{flag} must be in 1..={max}, got {rays}");
                 t.config.train.eval_pixel_rays = rays;
                 Ok(())
             }

@@ -77,6 +77,9 @@ pub enum Loss {
     Huber,
 }
 
+/// The most rays per pixel `train.pixel_rays` and `train.eval_pixel_rays` take.
+pub const MAX_PIXEL_RAYS: usize = 64;
+
 /// The optimisation schedule.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -128,7 +131,7 @@ pub struct TrainConfig {
     /// Each training ray passes through a random point of its pixel (true) or its centre,
     /// where evaluation and rendering cast theirs (false).
     pub pixel_jitter: bool,
-    /// Rays per training pixel, spread over its area (a square grid of cells, each ray at a
+    /// Rays per training pixel, spread over its area (a grid of cells, each ray at a
     /// random point of its cell with `pixel_jitter`), whose colours are averaged before the
     /// loss: the truth of a pixel is the mean over its area, which one ray can only match
     /// on average.
@@ -280,11 +283,10 @@ impl NerfConfig {
         if !(t.error_sampling.is_finite() && (0.0..=1.0).contains(&t.error_sampling)) {
             return Err(format!("train.error_sampling must be in [0, 1], got {}", t.error_sampling));
         }
-        if !(1..=64).contains(&t.pixel_rays) {
-            return Err(format!("train.pixel_rays must be in 1..=64, got {}", t.pixel_rays));
-        }
-        if !(1..=64).contains(&t.eval_pixel_rays) {
-            return Err(format!("train.eval_pixel_rays must be in 1..=64, got {}", t.eval_pixel_rays));
+        for (name, rays) in [("pixel_rays", t.pixel_rays), ("eval_pixel_rays", t.eval_pixel_rays)] {
+            if !(1..=MAX_PIXEL_RAYS).contains(&rays) {
+                return Err(format!("train.{name} must be in 1..={MAX_PIXEL_RAYS}, got {rays}"));
+            }
         }
         if t.eval_background == Background::Random {
             return Err("train.eval_background must be white or black".into());

@@ -340,7 +340,7 @@ impl NerfTrainer {
             }
         };
         // Each pixel's rays (`train.pixel_rays` of them) are averaged before the loss.
-        let per_pixel = cfg.pixel_rays.max(1);
+        let per_pixel = cfg.pixel_rays;
         for _ in 0..(n_rays / per_pixel).max(1) {
             let (mut img, mut k) = pick(&mut rng);
             // A masked pixel teaches nothing: draw again, a bounded number of times so that
@@ -360,8 +360,8 @@ impl NerfTrainer {
                 let ray = training_ray(&data.cameras[img], x, y, (j, per_pixel), cfg.pixel_jitter, &mut rng);
                 rays.push((ray.origin, ray.direction));
                 targets.push(data.pixels[img][k]);
-                picked.push((img, k));
             }
+            picked.push((img, k));
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
         let marcher = self.marcher();
@@ -443,7 +443,7 @@ impl NerfTrainer {
         let mse = squared.clone().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
         if let Some(map) = &mut self.error_map {
             let per_ray = squared.sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
-            for (&(img, k), &e) in picked.iter().step_by(per_pixel).zip(&per_ray) {
+            for (&(img, k), &e) in picked.iter().zip(&per_ray) {
                 map.record(map.block_of(img, k), e);
             }
             map.rebuild();

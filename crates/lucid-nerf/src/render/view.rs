@@ -42,7 +42,8 @@ pub struct ViewRenderer<'a> {
     pub background: [f32; 3],
     /// Device of the model.
     pub device: Device,
-    /// Rays per pixel, spread over its area (stratified) and averaged; 1: its centre.
+    /// Rays per pixel, through the centres of a grid of cells over its area, averaged; 1: its
+    /// centre.
     pub pixel_rays: usize,
 }
 
