@@ -52,8 +52,9 @@ fn training_beats_the_floor_is_reproducible_and_resumes_exactly() {
     for f in ["r_0.png", "r_0_depth.exr", "r_0_error.png"] {
         assert!(d.join("a/eval_test").join(f).is_file(), "{f} written");
     }
-    // Measured 23.9 dB here after 300 steps; the untrained model scores 8.9 dB on these views.
-    assert!(psnr > 21.0, "held-out PSNR {psnr}");
+    // Measured 24.92 dB here after 300 steps (8 levels of 4 features; 23.9 with 16 of 2); the
+    // untrained model scores 8.9 dB on these views.
+    assert!(psnr > 23.9, "held-out PSNR {psnr}");
 
     // Same seed, same numbers.
     train(d, "b", "300", &["--no-eval"]).success();
@@ -76,10 +77,10 @@ fn training_beats_the_floor_is_reproducible_and_resumes_exactly() {
     lucid_in(d, &["eval", "a/checkpoint.lucid", "ds", "-o", "e0", "--pixel-rays", "0"]).failure(&["--pixel-rays"]);
 
     // Trained on the mean of four rays per pixel: as good where it is evaluated so (measured
-    // 25.06 dB with 4 rays per pixel, 24.41 with one; the model above 25.18 and 25.35).
+    // 24.79 dB with 4 rays per pixel; the model above 24.92 with one and 25.24 with four).
     train(d, "p", "300", &["--set", "train.pixel_rays=4", "--set", "train.eval_pixel_rays=4"]).success();
     let p = metrics(d, "p")["summary"]["psnr"].as_f64().unwrap();
-    assert!(p > 23.5, "held-out PSNR {p} trained and evaluated with 4 rays per pixel");
+    assert!(p > 23.8, "held-out PSNR {p} trained and evaluated with 4 rays per pixel");
 }
 
 #[test]
