@@ -4,7 +4,8 @@
 //! (`u64`) sections: a JSON header (model kind, configuration, scene box, step, pixel
 //! angle), burn's record of the model parameters, burn's record of the optimiser state, and
 //! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`), and, when the run
-//! samples pixels by their loss, the error map ([`ErrorMap::to_bytes`]). Written to a
+//! samples pixels by their loss, the error map ([`ErrorMap::to_bytes`]), and last, when the
+//! header records one, the parameters' running average ([`ParameterAverage::to_bytes`]). Written to a
 //! temporary name and renamed, so a crash never leaves a torn file under the real name.
 
 use std::path::Path;
@@ -18,6 +19,7 @@ use serde::{Deserialize, Serialize};
 pub use lucid_burn::checkpoint::{CheckpointError, is_checkpoint, read_kind};
 use lucid_burn::checkpoint::{invalid, read_kind_sections, write_sections};
 
+use crate::average::{AverageHeader, ParameterAverage};
 use crate::config::NerfConfig;
 use crate::data::ViewInfo;
 use crate::error_map::ErrorMap;
@@ -48,6 +50,9 @@ pub struct CheckpointHeader {
     /// How the training cameras saw the scene.
     #[serde(default)]
     pub view: ViewInfo,
+    /// The running average of the parameters, whose values are the last section.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub average: Option<AverageHeader>,
 }
 
 /// Saves a trainer's full state to `path`.
@@ -62,6 +67,7 @@ pub fn save(path: &Path, trainer: &NerfTrainer, elapsed: f64) -> Result<(), Chec
         rays_per_batch: trainer.rays_per_batch,
         elapsed,
         view: trainer.view,
+        average: trainer.average.as_ref().map(ParameterAverage::header),
     };
     let header = serde_json::to_vec_pretty(&header).expect("the header serialises");
     let model = trainer.model.clone().into_record().into_bytes().map_err(|e| invalid(path, e.to_string()))?;
@@ -69,8 +75,10 @@ pub fn save(path: &Path, trainer: &NerfTrainer, elapsed: f64) -> Result<(), Chec
     let thickness: Vec<u8> = trainer.grid.thickness().iter().flat_map(|v| v.to_le_bytes()).collect();
     let bits: Vec<u8> = trainer.grid.bits().iter().flat_map(|v| v.to_le_bytes()).collect();
     let errors = trainer.error_map.as_ref().map(ErrorMap::to_bytes);
+    let average = trainer.average.as_ref().map(ParameterAverage::to_bytes);
     let mut sections = vec![&header[..], &model[..], &optim[..], &thickness[..], &bits[..]];
     sections.extend(errors.as_deref());
+    sections.extend(average.as_deref());
     write_sections(path, &sections)
 }
 
@@ -88,7 +96,12 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     let header: CheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
     header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
-    let (model, optim, thickness, bits, errors) = match &sections[..] {
+    let (sections, average) = match (&header.average, sections.split_last()) {
+        (Some(h), Some((last, rest))) if rest.len() >= 4 => (rest, Some((h, last))),
+        (None, _) => (&sections[..], None),
+        _ => return Err(invalid(path, "the header records a parameter average but the file holds none")),
+    };
+    let (model, optim, thickness, bits, errors) = match sections {
         [m, o, t, b] => (m, o, t, b, None),
         [m, o, t, b, e] => (m, o, t, b, Some(e)),
         _ => return Err(invalid(path, format!("expected 5 or 6 sections, found {}", sections.len() + 1))),
@@ -105,6 +118,12 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
             format!("model parameters: {} bytes, the configuration needs {needed}", model.len()),
         ));
     }
+    let average = average
+        .map(|(h, bytes)| {
+            ParameterAverage::from_parts(h, bytes, layout.grid.entries * layout.grid.features, layout.mlp_params())
+        })
+        .transpose()
+        .map_err(|e| invalid(path, e.to_string()))?;
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))
         .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
     let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
@@ -130,6 +149,7 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     trainer.rays_per_batch = header.rays_per_batch;
     trainer.view = header.view;
     trainer.error_map = error_map;
+    trainer.average = average;
     Ok(Loaded { header, trainer })
 }
 
@@ -187,5 +207,40 @@ mod tests {
         assert!(err(b"hello").contains("not a Lucid checkpoint"));
         let garbled = with_header(&path, |h| h.replace("\"step\"", "\"stop\""));
         assert!(err(&garbled).contains("malformed header"), "{}", err(&garbled));
+    }
+
+    /// The raw parameters go on training and the average is what is evaluated; both survive
+    /// a checkpoint, and a header that claims an average the file does not hold is refused.
+    #[test]
+    fn the_parameter_average_is_kept_beside_the_parameters() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("avg.lucid");
+        let mut trainer = tiny_trainer();
+        let values = |m: &NerfModel| {
+            (
+                m.table.val().into_data().try_to_vec::<f32>().unwrap(),
+                m.mlp.val().into_data().try_to_vec::<f32>().unwrap(),
+            )
+        };
+        let (table, mlp) = values(&trainer.model);
+        let shifted = |v: &[f32]| v.iter().map(|x| x + 1.0).collect::<Vec<f32>>();
+        trainer.average = Some(ParameterAverage::start(0.1, 0.9, shifted(&table), shifted(&mlp)));
+        trainer.error_map = Some(ErrorMap::new(&[(8, 8)], 1.0));
+        save(&path, &trainer, 2.0).unwrap();
+        let loaded = load(&path, &crate::backend::default_device()).unwrap().trainer;
+        assert_eq!(loaded.average, trainer.average);
+        assert_eq!(values(&loaded.model), (table.clone(), mlp.clone()));
+        assert_eq!(values(&loaded.eval_model()), (shifted(&table), shifted(&mlp)));
+        assert!(loaded.error_map.is_some());
+
+        let plain = dir.path().join("plain.lucid");
+        save(&plain, &tiny_trainer(), 1.0).unwrap();
+        let claimed = with_header(&plain, |h| {
+            h.replacen('{', "{\"average\": {\"window\": 0.1, \"progress\": 0.9, \"updates\": 3},", 1)
+        });
+        let p = dir.path().join("claimed.lucid");
+        std::fs::write(&p, claimed).unwrap();
+        let err = load(&p, &crate::backend::default_device()).err().expect("an error").to_string();
+        assert!(err.contains("claimed.lucid") && err.contains("parameter average"), "{err}");
     }
 }

@@ -143,6 +143,10 @@ pub struct TrainConfig {
     /// Weight of mip-NeRF 360's distortion loss (distances in scene-box diagonals), which
     /// draws each ray's weight together into a sharp surface; 0 turns it off.
     pub distortion: f32,
+    /// Time constant of the running average of the parameters that is evaluated and
+    /// rendered, as a fraction of the run's budget ([`crate::average`]); 0 turns it off and
+    /// the last parameters are used.
+    pub average_window: f64,
     /// Random seed (initialisation, pixel and jitter sampling).
     pub seed: u64,
     /// Steps between checkpoints (0: only at the end).
@@ -174,6 +178,7 @@ impl Default for TrainConfig {
             pixel_rays: 1,
             eval_pixel_rays: 1,
             distortion: 0.0,
+            average_window: 0.1,
             seed: 0,
             checkpoint_every: 1000,
             log_every: 50,
@@ -280,6 +285,9 @@ impl NerfConfig {
         if !(t.distortion.is_finite() && t.distortion >= 0.0) {
             return Err(format!("train.distortion must be zero or positive, got {}", t.distortion));
         }
+        if !(t.average_window.is_finite() && (0.0..=0.25).contains(&t.average_window)) {
+            return Err(format!("train.average_window must be in [0, 0.25], got {}", t.average_window));
+        }
         if !(t.error_sampling.is_finite() && (0.0..=1.0).contains(&t.error_sampling)) {
             return Err(format!("train.error_sampling must be in [0, 1], got {}", t.error_sampling));
         }
@@ -323,6 +331,8 @@ mod tests {
         assert!(err.contains("bad.toml") && err.contains("stepz"), "{err}");
         let err = NerfConfig::from_toml("[train]\ndistortion = -0.1\n", "d.toml").unwrap_err();
         assert!(err.contains("d.toml") && err.contains("train.distortion"), "{err}");
+        let err = NerfConfig::from_toml("[train]\naverage_window = nan\n", "w.toml").unwrap_err();
+        assert!(err.contains("w.toml") && err.contains("train.average_window"), "{err}");
         let err = NerfConfig::from_toml("[field.grid]\nlevels = 0\n", "g.toml").unwrap_err();
         assert!(err.contains("levels"), "{err}");
     }

@@ -10,6 +10,7 @@
 
 pub use lucid_burn::backend;
 
+pub mod average;
 pub mod checkpoint;
 pub mod config;
 pub mod data;

@@ -14,6 +14,7 @@ use lucid_scene::camera::{Camera, PinholeCamera};
 use lucid_scene::ray::Ray;
 use lucid_scene::sampling::{Rng, grid_cell_point, mix};
 
+use crate::average::{AVERAGE_EVERY, ParameterAverage};
 use crate::config::{Background, Loss, NerfConfig};
 use crate::data::{ImageSet, ViewInfo, scene_box};
 use crate::encoding::hash_grid::FINEST_CELLS_PER_PIXEL;
@@ -134,6 +135,10 @@ pub struct NerfTrainer {
     /// Per-block loss estimates of the training images, when `train.error_sampling` is on
     /// (made at the first step, kept in checkpoints).
     pub error_map: Option<ErrorMap>,
+    /// The running average of the parameters over the end of the budget, when
+    /// `train.average_window` is on and the run has reached it: what is evaluated and
+    /// rendered.
+    pub average: Option<ParameterAverage>,
     device: Device,
 }
 
@@ -270,6 +275,7 @@ impl NerfTrainer {
             view: ViewInfo::default(),
             progress: 0.0,
             error_map: None,
+            average: None,
             device,
         }
     }
@@ -468,6 +474,9 @@ impl NerfTrainer {
         self.model = self.optimizer.step(lr, model, grads);
         // burn's ops run eagerly on the CPU backends; a read makes that explicit on others.
         let _ = self.model.table.val().slice([0..1, 0..1]).into_data();
+        if ParameterAverage::active(cfg.average_window, self.progress) && self.step.is_multiple_of(AVERAGE_EVERY) {
+            self.update_average();
+        }
         lap(&mut timings.optimizer);
         self.step += 1;
         StepStats { loss: loss_value, psnr: -10.0 * mse.max(1e-10).log10(), rays: kept, samples: s, timings }
@@ -508,9 +517,31 @@ impl NerfTrainer {
         self.grid.update(&obs, occ.decay, occ.threshold);
     }
 
-    /// The model without autodiff tracking, on the inner device, for rendering.
+    /// Takes the current parameters into the running average (starting it if need be).
+    fn update_average(&mut self) {
+        let table = self.model.table.val().into_data().try_into_vec::<f32>().expect("f32");
+        let mlp = self.model.mlp.val().into_data().try_into_vec::<f32>().expect("f32");
+        match &mut self.average {
+            Some(average) => average.update(&table, &mlp, self.progress),
+            None => {
+                self.average =
+                    Some(ParameterAverage::start(self.config.train.average_window, self.progress, table, mlp));
+            }
+        }
+    }
+
+    /// The model to evaluate and render, without autodiff tracking, on the inner device:
+    /// the parameters' running average once there is one, else the parameters.
     pub fn eval_model(&self) -> NerfModel {
-        burn::module::Module::valid(&self.model)
+        match &self.average {
+            Some(average) => NerfModel::from_values(
+                &self.config.field,
+                average.table.clone(),
+                average.mlp.clone(),
+                &crate::backend::default_device(),
+            ),
+            None => burn::module::Module::valid(&self.model),
+        }
     }
 
     /// A renderer of `model` (from [`Self::eval_model`]) with this run's settings.
