@@ -43,14 +43,16 @@ pub struct FieldConfig {
 }
 
 impl Default for FieldConfig {
-    /// instant-ngp's NeRF: 64 wide, 16 geometry features, 1 + 2 hidden layers.
+    /// instant-ngp's NeRF (64 wide, 16 geometry features, 1 + 2 hidden layers) with a third
+    /// hidden layer in the colour MLP: on the benchmark sets' validation views at 600 s it
+    /// gained 0.1 dB on both for 6–10 % fewer steps (README).
     fn default() -> Self {
         Self {
             grid: HashGridConfig::default(),
             hidden: 64,
             geometry_features: 16,
             density_hidden_layers: 1,
-            colour_hidden_layers: 2,
+            colour_hidden_layers: 3,
         }
     }
 }
