@@ -51,10 +51,15 @@ impl ParameterAverage {
     /// Takes in the parameters at budget fraction `progress`: over the first window the
     /// average is the plain mean of the parameters it saw, afterwards an exponential moving
     /// average whose time constant is the window (each update weighs the budget fraction
-    /// since the last one, over the window).
+    /// since the last one, over the window). A run resumed with a larger budget goes back in
+    /// `progress`: the average starts again from these parameters.
     pub fn update(&mut self, table: &[f32], mlp: &[f32], progress: f64) {
         use rayon::prelude::*;
         assert_eq!((table.len(), mlp.len()), (self.table.len(), self.mlp.len()), "parameter shapes changed");
+        if progress < self.progress {
+            *self = Self::start(self.window, progress, table.to_vec(), mlp.to_vec());
+            return;
+        }
         self.updates += 1;
         let weight = ((progress - self.progress) / self.window).max(1.0 / self.updates as f64).min(1.0) as f32;
         self.progress = progress;
@@ -148,6 +153,14 @@ mod tests {
         let lag = t - avg.table[0] as f64;
         assert!((lag - window).abs() < 0.02 * window, "lag {lag} against window {window}");
         assert!((2.0 * t - avg.mlp[0] as f64 - 2.0 * window).abs() < 0.04 * window);
+    }
+
+    #[test]
+    fn a_larger_budget_starts_it_again() {
+        let mut avg = ParameterAverage::start(0.1, 0.9, vec![1.0], vec![2.0]);
+        avg.update(&[3.0], &[4.0], 0.95);
+        avg.update(&[5.0], &[6.0], 0.7);
+        assert_eq!(avg, ParameterAverage::start(0.1, 0.7, vec![5.0], vec![6.0]));
     }
 
     #[test]

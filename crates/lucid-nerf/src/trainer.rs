@@ -474,8 +474,13 @@ impl NerfTrainer {
         self.model = self.optimizer.step(lr, model, grads);
         // burn's ops run eagerly on the CPU backends; a read makes that explicit on others.
         let _ = self.model.table.val().slice([0..1, 0..1]).into_data();
-        if ParameterAverage::active(cfg.average_window, self.progress) && self.step.is_multiple_of(AVERAGE_EVERY) {
-            self.update_average();
+        if ParameterAverage::active(cfg.average_window, self.progress) {
+            if self.step.is_multiple_of(AVERAGE_EVERY) {
+                self.update_average();
+            }
+        } else {
+            // A run resumed with a larger budget is back before the average's start.
+            self.average = None;
         }
         lap(&mut timings.optimizer);
         self.step += 1;
