@@ -5,8 +5,9 @@
 //! angle), burn's record of the model parameters, burn's record of the optimiser state, and
 //! the occupancy grid (thickness per cell as `f32`, bitfield as `u64`), and, when the run
 //! samples pixels by their loss, the error map ([`ErrorMap::to_bytes`]), and last, when the
-//! header records one, the parameters' running average ([`ParameterAverage::to_bytes`]). Written to a
-//! temporary name and renamed, so a crash never leaves a torn file under the real name.
+//! header records one, the parameters' running average ([`ParameterAverage::to_bytes`]).
+//! Written to a temporary name and renamed, so a crash never leaves a torn file under the real
+//! name.
 
 use std::path::Path;
 
