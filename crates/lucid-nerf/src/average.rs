@@ -20,12 +20,8 @@ const START_WINDOWS: f64 = 4.0;
 /// The averaged parameters and where the average stands.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParameterAverage {
-    /// Time constant of the average, as a fraction of the budget.
-    pub window: f64,
-    /// Budget fraction at the last update.
-    pub progress: f64,
-    /// Updates so far.
-    pub updates: u64,
+    /// Where the average stands (a checkpoint's header records it).
+    pub state: AverageState,
     /// The averaged hash table.
     pub table: Vec<f32>,
     /// The averaged MLP weights.
@@ -45,7 +41,7 @@ impl ParameterAverage {
 
     /// An average that starts from these parameters.
     pub fn start(window: f64, progress: f64, table: Vec<f32>, mlp: Vec<f32>) -> Self {
-        Self { window, progress, updates: 1, table, mlp }
+        Self { state: AverageState { window, progress, updates: 1 }, table, mlp }
     }
 
     /// Takes in the parameters at budget fraction `progress`: over the first window the
@@ -56,13 +52,14 @@ impl ParameterAverage {
     pub fn update(&mut self, table: &[f32], mlp: &[f32], progress: f64) {
         use rayon::prelude::*;
         assert_eq!((table.len(), mlp.len()), (self.table.len(), self.mlp.len()), "parameter shapes changed");
-        if progress < self.progress {
-            *self = Self::start(self.window, progress, table.to_vec(), mlp.to_vec());
+        let state = &mut self.state;
+        if progress < state.progress {
+            *self = Self::start(state.window, progress, table.to_vec(), mlp.to_vec());
             return;
         }
-        self.updates += 1;
-        let weight = ((progress - self.progress) / self.window).max(1.0 / self.updates as f64).min(1.0) as f32;
-        self.progress = progress;
+        state.updates += 1;
+        let weight = ((progress - state.progress) / state.window).max(1.0 / state.updates as f64).min(1.0) as f32;
+        state.progress = progress;
         let blend = |avg: &mut [f32], new: &[f32]| {
             for (a, &x) in avg.iter_mut().zip(new) {
                 *a += weight * (x - *a);
@@ -73,35 +70,33 @@ impl ParameterAverage {
     }
 
     /// The averaged parameters as bytes (little-endian `f32`, table then MLP) for a
-    /// checkpoint section; the header keeps the rest ([`AverageHeader`]).
+    /// checkpoint section; the header keeps the rest ([`AverageState`]).
     pub fn to_bytes(&self) -> Vec<u8> {
         self.table.iter().chain(&self.mlp).flat_map(|v| v.to_le_bytes()).collect()
     }
 
-    /// An average from its header and a section written by [`Self::to_bytes`], for a model
-    /// of `table` and `mlp` parameters.
-    pub fn from_parts(header: &AverageHeader, bytes: &[u8], table: usize, mlp: usize) -> Result<Self, AverageError> {
-        if bytes.len() != 4 * (table + mlp) {
-            return Err(AverageError(format!("{} bytes, the model needs {}", bytes.len(), 4 * (table + mlp))));
+    /// An average from its state and the values of a section written by [`Self::to_bytes`],
+    /// for a model of `table` and `mlp` parameters.
+    pub fn from_parts(
+        state: AverageState,
+        mut values: Vec<f32>,
+        table: usize,
+        mlp: usize,
+    ) -> Result<Self, AverageError> {
+        if values.len() != table + mlp {
+            return Err(AverageError(format!("{} values, the model has {}", values.len(), table + mlp)));
         }
-        if !(header.window > 0.0 && header.window.is_finite() && header.progress.is_finite()) {
-            return Err(AverageError(format!("window {} at progress {}", header.window, header.progress)));
+        if !(state.window > 0.0 && state.window.is_finite() && state.progress.is_finite()) {
+            return Err(AverageError(format!("window {} at progress {}", state.window, state.progress)));
         }
-        let mut values = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
-        let table: Vec<f32> = values.by_ref().take(table).collect();
-        let mlp: Vec<f32> = values.collect();
-        Ok(Self { window: header.window, progress: header.progress, updates: header.updates, table, mlp })
-    }
-
-    /// What a checkpoint's header records of the average.
-    pub fn header(&self) -> AverageHeader {
-        AverageHeader { window: self.window, progress: self.progress, updates: self.updates }
+        let mlp = values.split_off(table);
+        Ok(Self { state, table: values, mlp })
     }
 }
 
-/// The average's state beside its parameters, in a checkpoint's header.
+/// Where an average stands, recorded in a checkpoint's header beside its parameters.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AverageHeader {
+pub struct AverageState {
     /// Time constant, as a fraction of the budget.
     pub window: f64,
     /// Budget fraction at the last update.
@@ -167,11 +162,11 @@ mod tests {
     fn round_trips_through_bytes_and_rejects_damage() {
         let mut avg = ParameterAverage::start(0.1, 0.7, vec![1.0, 2.0, 3.0], vec![4.0, 5.0]);
         avg.update(&[0.0, 0.0, 0.0], &[1.0, 1.0], 0.71);
-        let bytes = avg.to_bytes();
-        assert_eq!(ParameterAverage::from_parts(&avg.header(), &bytes, 3, 2), Ok(avg.clone()));
-        let short = ParameterAverage::from_parts(&avg.header(), &bytes[..16], 3, 2).unwrap_err();
-        assert!(short.to_string().contains("16 bytes, the model needs 20"), "{short}");
-        let bad = AverageHeader { window: f64::NAN, ..avg.header() };
-        assert!(ParameterAverage::from_parts(&bad, &bytes, 3, 2).is_err());
+        let values = crate::checkpoint::le_f32s(&avg.to_bytes()).expect("whole values");
+        assert_eq!(ParameterAverage::from_parts(avg.state, values.clone(), 3, 2), Ok(avg.clone()));
+        let short = ParameterAverage::from_parts(avg.state, values[..4].to_vec(), 3, 2).unwrap_err();
+        assert!(short.to_string().contains("4 values, the model has 5"), "{short}");
+        let bad = AverageState { window: f64::NAN, ..avg.state };
+        assert!(ParameterAverage::from_parts(bad, values, 3, 2).is_err());
     }
 }

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 pub use lucid_burn::checkpoint::{CheckpointError, is_checkpoint, read_kind};
 use lucid_burn::checkpoint::{invalid, read_kind_sections, write_sections};
 
-use crate::average::{AverageHeader, ParameterAverage};
+use crate::average::{AverageState, ParameterAverage};
 use crate::config::NerfConfig;
 use crate::data::ViewInfo;
 use crate::error_map::ErrorMap;
@@ -53,7 +53,7 @@ pub struct CheckpointHeader {
     pub view: ViewInfo,
     /// The running average of the parameters, whose values are the last section.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub average: Option<AverageHeader>,
+    pub average: Option<AverageState>,
 }
 
 /// Saves a trainer's full state to `path`.
@@ -68,7 +68,7 @@ pub fn save(path: &Path, trainer: &NerfTrainer, elapsed: f64) -> Result<(), Chec
         rays_per_batch: trainer.rays_per_batch,
         elapsed,
         view: trainer.view,
-        average: trainer.average.as_ref().map(ParameterAverage::header),
+        average: trainer.average.as_ref().map(|a| a.state),
     };
     let header = serde_json::to_vec_pretty(&header).expect("the header serialises");
     let model = trainer.model.clone().into_record().into_bytes().map_err(|e| invalid(path, e.to_string()))?;
@@ -98,7 +98,7 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
     header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
     let (sections, average) = match (&header.average, sections.split_last()) {
-        (Some(h), Some((last, rest))) if rest.len() >= 4 => (rest, Some((h, last))),
+        (Some(state), Some((last, rest))) if rest.len() >= 4 => (rest, Some((*state, last))),
         (None, _) => (&sections[..], None),
         _ => return Err(invalid(path, "the header records a parameter average but the file holds none")),
     };
@@ -120,11 +120,13 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
         ));
     }
     let average = average
-        .map(|(h, bytes)| {
-            ParameterAverage::from_parts(h, bytes, layout.grid.entries * layout.grid.features, layout.mlp_params())
+        .map(|(state, bytes)| {
+            let (table, mlp) = (layout.grid.entries * layout.grid.features, layout.mlp_params());
+            let values = le_f32s(bytes).ok_or("parameter average: not a whole number of f32 values")?;
+            ParameterAverage::from_parts(state, values, table, mlp).map_err(|e| e.to_string())
         })
         .transpose()
-        .map_err(|e| invalid(path, e.to_string()))?;
+        .map_err(|e| invalid(path, e))?;
     let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.to_vec()))
         .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
     let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
@@ -133,7 +135,7 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
         .from_bytes(Bytes::from_bytes_vec(optim.to_vec()))
         .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
     let res = header.config.occupancy.resolution;
-    let thickness: Vec<f32> = thickness.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4"))).collect();
+    let thickness = le_f32s(thickness).ok_or_else(|| invalid(path, "occupancy thickness: not whole f32 values"))?;
     let bits: Vec<u64> = bits.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8"))).collect();
     let [lo, hi] = header.bounds;
     let grid = OccupancyGrid::from_parts(res, Vec3::from(lo), Vec3::from(hi), thickness, bits)
@@ -152,6 +154,12 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
     trainer.error_map = error_map;
     trainer.average = average;
     Ok(Loaded { header, trainer })
+}
+
+/// Little-endian `f32`s of a section, or `None` if its length is not a whole number of them.
+pub(crate) fn le_f32s(bytes: &[u8]) -> Option<Vec<f32>> {
+    let values = bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
+    bytes.len().is_multiple_of(4).then(|| values.collect())
 }
 
 #[cfg(test)]
