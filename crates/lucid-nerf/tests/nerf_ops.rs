@@ -23,6 +23,8 @@ fn config() -> FieldConfig {
         geometry_features: 4,
         density_hidden_layers: 1,
         colour_hidden_layers: 2,
+        // Above instant-ngp's 4 bands, so the gradients are checked through the recurrence's.
+        direction_degree: 5,
     }
 }
 

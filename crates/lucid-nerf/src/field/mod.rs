@@ -14,7 +14,7 @@ use lucid_scene::simd::wide;
 use rayon::prelude::*;
 
 use crate::encoding::hash_grid::{HashGridConfig, HashGridLayout};
-use crate::encoding::spherical_harmonics::{SH_COEFFICIENTS, sh_encode};
+use crate::encoding::spherical_harmonics::{self, sh_encode};
 use mlp::{MlpShape, View, matmul, matmul_raw};
 
 /// Largest log-density passed to `exp` (and the clamp of its gradient): `exp(15) ≈ 3·10⁶`.
@@ -40,6 +40,9 @@ pub struct FieldConfig {
     pub density_hidden_layers: usize,
     /// Hidden layers of the colour MLP.
     pub colour_hidden_layers: usize,
+    /// Bands of the view direction's spherical-harmonic encoding (instant-ngp: 4, that is
+    /// 16 coefficients).
+    pub direction_degree: usize,
 }
 
 impl Default for FieldConfig {
@@ -53,6 +56,7 @@ impl Default for FieldConfig {
             geometry_features: 16,
             density_hidden_layers: 1,
             colour_hidden_layers: 3,
+            direction_degree: 4,
         }
     }
 }
@@ -70,6 +74,13 @@ impl FieldConfig {
         if self.density_hidden_layers > 8 || self.colour_hidden_layers > 8 {
             return Err("at most 8 hidden layers per MLP".into());
         }
+        if !(1..=spherical_harmonics::MAX_DEGREE).contains(&self.direction_degree) {
+            return Err(format!(
+                "direction_degree must be in 1..={}, got {}",
+                spherical_harmonics::MAX_DEGREE,
+                self.direction_degree
+            ));
+        }
         Ok(())
     }
 
@@ -81,7 +92,7 @@ impl FieldConfig {
         dims.extend(std::iter::repeat_n(h, self.density_hidden_layers));
         dims.push(g);
         let density = MlpShape::new(dims, 0);
-        let mut dims = vec![g + SH_COEFFICIENTS];
+        let mut dims = vec![g + spherical_harmonics::coefficients(self.direction_degree)];
         dims.extend(std::iter::repeat_n(h, self.colour_hidden_layers));
         dims.push(3);
         let colour = MlpShape::new(dims, density.end());
@@ -190,6 +201,7 @@ impl FieldLayout {
         assert_eq!(mlp.len(), self.mlp_params(), "MLP weights have the wrong size");
         let stride = self.stride;
         let width = self.density_width();
+        let directions_width = self.colour.input() - self.density.output();
         let run = |c: usize, out: &mut [f32], act: &mut [f32]| {
             wide(
                 #[inline(always)]
@@ -213,7 +225,7 @@ impl FieldLayout {
                     let dir = &directions[3 * rows.start..3 * rows.end];
                     for i in 0..n {
                         let row = &mut act[i * stride..(i + 1) * stride];
-                        let sh = &mut row[width..][..SH_COEFFICIENTS];
+                        let sh = &mut row[width..][..directions_width];
                         sh_encode([dir[3 * i], dir[3 * i + 1], dir[3 * i + 2]], sh);
                     }
                     self.mlp_forward(&self.colour, self.colour_in, &self.colour_out, mlp, act, n, stride);
@@ -517,6 +529,7 @@ pub(crate) mod tests {
             geometry_features: 4,
             density_hidden_layers: 1,
             colour_hidden_layers: 2,
+            direction_degree: 4,
         }
     }
 
