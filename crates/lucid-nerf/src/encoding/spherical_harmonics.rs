@@ -9,9 +9,6 @@
 
 use std::sync::LazyLock;
 
-/// Number of coefficients for degree 4 (bands 0..=3).
-pub const SH_COEFFICIENTS: usize = 16;
-
 /// Largest degree (number of bands) the encoding offers.
 pub const MAX_DEGREE: usize = 8;
 
@@ -19,6 +16,9 @@ pub const MAX_DEGREE: usize = 8;
 pub const fn coefficients(degree: usize) -> usize {
     degree * degree
 }
+
+/// Coefficients of instant-ngp's degree 4 (bands 0..=3), the ones written out.
+const SH_COEFFICIENTS: usize = coefficients(4);
 
 /// Evaluates the first `out.len()` real spherical harmonics (a square: 1, 4, 9, …, 64) at the
 /// unit direction `d` into `out`.
