@@ -48,15 +48,18 @@ impl ParameterAverage {
     /// average is the plain mean of the parameters it saw, afterwards an exponential moving
     /// average whose time constant is the window (each update weighs the budget fraction
     /// since the last one, over the window). A run resumed with a larger budget goes back in
-    /// `progress`: the average starts again from these parameters.
-    pub fn update(&mut self, table: &[f32], mlp: &[f32], progress: f64) {
+    /// `progress`: the average starts again from these parameters. `window` is the run's
+    /// current one: a run resumed with another `train.average_window` goes on with it.
+    pub fn update(&mut self, table: &[f32], mlp: &[f32], progress: f64, window: f64) {
         use rayon::prelude::*;
         assert_eq!((table.len(), mlp.len()), (self.table.len(), self.mlp.len()), "parameter shapes changed");
+        assert!(window > 0.0, "an average needs a positive window");
         let state = &mut self.state;
         if progress < state.progress {
-            *self = Self::start(state.window, progress, table.to_vec(), mlp.to_vec());
+            *self = Self::start(window, progress, table.to_vec(), mlp.to_vec());
             return;
         }
+        state.window = window;
         state.updates += 1;
         let weight = ((progress - state.progress) / state.window).max(1.0 / state.updates as f64).min(1.0) as f32;
         state.progress = progress;
@@ -124,7 +127,7 @@ mod tests {
         let mut avg = ParameterAverage::start(0.1, 0.6, vec![1.0, -2.0], vec![0.5]);
         let values = [(3.0f32, 4.0f32, 1.5f32), (-1.0, 0.0, 2.5), (7.0, 1.0, -0.5)];
         for (i, &(a, b, c)) in values.iter().enumerate() {
-            avg.update(&[a, b], &[c], 0.6 + 0.01 * (i + 1) as f64);
+            avg.update(&[a, b], &[c], 0.6 + 0.01 * (i + 1) as f64, 0.1);
         }
         let mean = |f: fn(&(f32, f32, f32)) -> f32, first: f32| (values.iter().map(f).sum::<f32>() + first) / 4.0;
         assert!((avg.table[0] - mean(|v| v.0, 1.0)).abs() < 1e-6, "{:?}", avg.table);
@@ -143,25 +146,41 @@ mod tests {
         let mut t = 0.0;
         while t < 1.0 {
             t += dt;
-            avg.update(&[t as f32], &[2.0 * t as f32], t);
+            avg.update(&[t as f32], &[2.0 * t as f32], t, window);
         }
         let lag = t - avg.table[0] as f64;
         assert!((lag - window).abs() < 0.02 * window, "lag {lag} against window {window}");
         assert!((2.0 * t - avg.mlp[0] as f64 - 2.0 * window).abs() < 0.04 * window);
     }
 
+    /// A run resumed with another window goes on with it: after five of the new windows the
+    /// average lags a ramp by the new window, not the one it started with.
+    #[test]
+    fn a_changed_window_takes_over() {
+        let mut avg = ParameterAverage::start(0.05, 0.0, vec![0.0], vec![0.0]);
+        let dt = 1e-4;
+        let mut t = 0.0;
+        while t < 1.0 {
+            t += dt;
+            avg.update(&[t as f32], &[0.0], t, if t < 0.5 { 0.05 } else { 0.1 });
+        }
+        assert_eq!(avg.state.window, 0.1);
+        let lag = t - avg.table[0] as f64;
+        assert!((lag - 0.1).abs() < 0.002, "lag {lag} against the new window 0.1");
+    }
+
     #[test]
     fn a_larger_budget_starts_it_again() {
         let mut avg = ParameterAverage::start(0.1, 0.9, vec![1.0], vec![2.0]);
-        avg.update(&[3.0], &[4.0], 0.95);
-        avg.update(&[5.0], &[6.0], 0.7);
+        avg.update(&[3.0], &[4.0], 0.95, 0.1);
+        avg.update(&[5.0], &[6.0], 0.7, 0.1);
         assert_eq!(avg, ParameterAverage::start(0.1, 0.7, vec![5.0], vec![6.0]));
     }
 
     #[test]
     fn round_trips_through_bytes_and_rejects_damage() {
         let mut avg = ParameterAverage::start(0.1, 0.7, vec![1.0, 2.0, 3.0], vec![4.0, 5.0]);
-        avg.update(&[0.0, 0.0, 0.0], &[1.0, 1.0], 0.71);
+        avg.update(&[0.0, 0.0, 0.0], &[1.0, 1.0], 0.71, 0.1);
         let values = crate::checkpoint::le_f32s(&avg.to_bytes()).expect("whole values");
         assert_eq!(ParameterAverage::from_parts(avg.state, values.clone(), 3, 2), Ok(avg.clone()));
         let short = ParameterAverage::from_parts(avg.state, values[..4].to_vec(), 3, 2).unwrap_err();

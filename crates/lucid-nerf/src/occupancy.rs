@@ -14,6 +14,10 @@
 //! the samples 3.7 to 1 on a trophy view.
 
 use glam::{UVec3, Vec3};
+use rayon::prelude::*;
+
+/// Cells per parallel task of the grid's whole-grid passes (a multiple of 64, one bit word).
+const CELL_CHUNK: usize = 1 << 15;
 
 /// The grid over an axis-aligned box.
 #[derive(Clone, Debug, PartialEq)]
@@ -60,20 +64,25 @@ impl OccupancyGrid {
         let mut k = 1;
         while (1u32 << (k - 1)) < r {
             let n = self.regions_per_axis(k) as usize;
-            let mut level = vec![false; n.pow(3)];
-            // Each level from the one below it (the first from the cells): 8 children a region.
+            // Each level from the one below it (the first from the cells): up to 8 children a
+            // region, fewer at the grid's far edges.
             let below = if k == 1 { r as usize } else { self.regions_per_axis(k - 1) as usize };
-            for z in 0..below {
-                for y in 0..below {
-                    for x in 0..below {
-                        let child = (z * below + y) * below + x;
-                        let occupied = if k == 1 { self.is_occupied(child) } else { mips[k as usize - 2][child] };
-                        if occupied {
-                            level[((z / 2) * n + y / 2) * n + x / 2] = true;
-                        }
-                    }
-                }
-            }
+            let prev = mips.last();
+            let occupied = |child: usize| match prev {
+                None => self.is_occupied(child),
+                Some(level) => level[child],
+            };
+            let level: Vec<bool> = (0..n * n * n)
+                .into_par_iter()
+                .with_min_len(CELL_CHUNK)
+                .map(|i| {
+                    let (x, y, z) = (2 * (i % n), 2 * (i / n % n), 2 * (i / (n * n)));
+                    (z..(z + 2).min(below)).any(|cz| {
+                        (y..(y + 2).min(below))
+                            .any(|cy| (x..(x + 2).min(below)).any(|cx| occupied((cz * below + cy) * below + cx)))
+                    })
+                })
+                .collect();
             mips.push(level);
             k += 1;
         }
@@ -188,35 +197,43 @@ impl OccupancyGrid {
 
     /// Indices of the occupied cells.
     pub fn occupied_cells(&self) -> Vec<u32> {
-        (0..self.cells()).filter(|&i| self.is_occupied(i)).map(|i| i as u32).collect()
+        (0..self.cells() as u32)
+            .into_par_iter()
+            .with_min_len(CELL_CHUNK)
+            .filter(|&i| self.is_occupied(i as usize))
+            .collect()
     }
 
     /// One update: every cell decays by `decay`, each `(cell, thickness)` observation raises
     /// its cell to at least that value, and the bitfield is rebuilt with the threshold
     /// `min(max_threshold, mean thickness)`. Returns the threshold used.
     pub fn update(&mut self, observations: &[(u32, f32)], decay: f32, max_threshold: f32) -> f32 {
-        let mut fresh = vec![0f32; self.cells()];
+        // Decaying every cell and then raising the observed ones gives max(decayed, largest
+        // observation), as thickness is never negative; both cores decay, one observes.
+        self.thickness.par_chunks_mut(CELL_CHUNK).for_each(|c| c.iter_mut().for_each(|t| *t *= decay));
         for &(cell, value) in observations {
-            let slot = &mut fresh[cell as usize];
-            *slot = slot.max(value);
+            let t = &mut self.thickness[cell as usize];
+            *t = t.max(value);
         }
-        let mut sum = 0.0f64;
-        for (t, f) in self.thickness.iter_mut().zip(&fresh) {
-            *t = (*t * decay).max(*f);
-            sum += *t as f64;
-        }
+        // Sums of fixed chunks, added in order: the same threshold on every run.
+        let sums: Vec<f64> =
+            self.thickness.par_chunks(CELL_CHUNK).map(|c| c.iter().map(|&t| f64::from(t)).sum()).collect();
+        let sum: f64 = sums.iter().sum();
         let threshold = max_threshold.min((sum / self.cells() as f64) as f32);
         self.rebuild_bits(threshold);
         threshold
     }
 
     fn rebuild_bits(&mut self, threshold: f32) {
-        self.bits.iter_mut().for_each(|b| *b = 0);
-        for (i, &t) in self.thickness.iter().enumerate() {
-            if t > threshold {
-                self.bits[i / 64] |= 1 << (i % 64);
+        let thickness = &self.thickness;
+        self.bits.par_chunks_mut(CELL_CHUNK / 64).enumerate().for_each(|(c, words)| {
+            let first = c * CELL_CHUNK;
+            for (w, word) in words.iter_mut().enumerate() {
+                let start = first + 64 * w;
+                let cells = &thickness[start..(start + 64).min(thickness.len())];
+                *word = cells.iter().enumerate().filter(|&(_, &t)| t > threshold).fold(0, |b, (i, _)| b | 1 << i);
             }
-        }
+        });
         self.rebuild_mips();
     }
 
@@ -303,6 +320,46 @@ mod tests {
         // Saved and restored, the levels are derived again.
         let back = OccupancyGrid::from_parts(20, g.min, g.max, g.thickness.clone(), g.bits.clone()).unwrap();
         assert_eq!(back, g);
+    }
+
+    /// On a grid of many parallel chunks whose cell count is not a whole number of bit words,
+    /// an update keeps max(decayed, largest observation) per cell, marks exactly the cells
+    /// above the threshold, and each mip level flags exactly the regions holding one.
+    #[test]
+    fn updates_and_levels_match_the_cell_by_cell_definition() {
+        let r = 70u32;
+        let mut g = OccupancyGrid::new(r, Vec3::splat(-1.0), Vec3::splat(1.0));
+        let mut rng = Rng::new(9, 1);
+        let mut expected = vec![0f32; g.cells()];
+        for _ in 0..2 {
+            let obs: Vec<(u32, f32)> = (0..20_000)
+                .map(|_| (rng.below(g.cells()) as u32, if rng.uniform() < 0.5 { 0.02 * rng.uniform() } else { 0.005 }))
+                .collect();
+            expected.iter_mut().for_each(|t| *t *= 0.9);
+            for &(c, v) in &obs {
+                expected[c as usize] = expected[c as usize].max(v);
+            }
+            let threshold = g.update(&obs, 0.9, 0.01);
+            let mean = expected.iter().map(|&t| f64::from(t)).sum::<f64>() / expected.len() as f64;
+            assert!((f64::from(threshold) - mean.min(0.01)).abs() < 1e-9, "{threshold} against {mean}");
+            assert_eq!(g.thickness, expected);
+            for (i, &t) in expected.iter().enumerate() {
+                assert_eq!(g.is_occupied(i), t > threshold, "cell {i}");
+            }
+            assert!(g.bits.last().is_some_and(|w| w >> (g.cells() % 64) == 0), "bits past the last cell stay clear");
+            for k in 1..=g.mips.len() as u32 {
+                let n = g.regions_per_axis(k);
+                for (i, &flag) in g.mips[k as usize - 1].iter().enumerate() {
+                    let q = UVec3::new(i as u32 % n, i as u32 / n % n, i as u32 / (n * n));
+                    let lo = q << k;
+                    let hi = ((q + UVec3::ONE) << k).min(UVec3::splat(r));
+                    let any = (lo.z..hi.z).any(|z| {
+                        (lo.y..hi.y).any(|y| (lo.x..hi.x).any(|x| g.is_occupied(g.index(UVec3::new(x, y, z)))))
+                    });
+                    assert_eq!(flag, any, "level {k} region {i}");
+                }
+            }
+        }
     }
 
     /// A sphere of dense matter in an empty box: after updates with one random sample per

@@ -2,6 +2,7 @@
 //! to a fixed sample budget, evaluate and composite on the autodiff device, take burn's Adam
 //! step; every few steps refresh the occupancy grid from the field's density.
 
+use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -504,7 +505,7 @@ impl NerfTrainer {
             }
             v
         };
-        chosen.sort_unstable();
+        chosen.par_sort_unstable();
         let res = self.grid.resolution() as f32;
         let positions: Vec<f32> = chosen
             .iter()
@@ -527,7 +528,7 @@ impl NerfTrainer {
         let table = self.model.table.val().into_data().try_into_vec::<f32>().expect("f32");
         let mlp = self.model.mlp.val().into_data().try_into_vec::<f32>().expect("f32");
         match &mut self.average {
-            Some(average) => average.update(&table, &mlp, self.progress),
+            Some(average) => average.update(&table, &mlp, self.progress, self.config.train.average_window),
             None => {
                 self.average =
                     Some(ParameterAverage::start(self.config.train.average_window, self.progress, table, mlp));
