@@ -154,6 +154,9 @@ pub struct FusedAdam {
     pub epsilon: f32,
     /// L2 penalty on the parameters, 0 for none.
     pub weight_decay: f32,
+    /// Factor on the learning rate the module optimiser passes in: one parameter group can
+    /// learn faster or slower than the others on one schedule.
+    pub lr_scale: f32,
 }
 
 impl Optimizer for FusedAdam {
@@ -171,7 +174,7 @@ impl Optimizer for FusedAdam {
             None => (tensor.zeros_like(), tensor.zeros_like(), 1),
         };
         let step = AdamStep {
-            lr: lr as f32,
+            lr: lr as f32 * self.lr_scale,
             beta1: self.beta1,
             beta2: self.beta2,
             epsilon: self.epsilon,
@@ -208,7 +211,11 @@ mod tests {
         w: Param<Tensor<2>>,
     }
 
-    fn run(mut opt: ModuleOptimizer) -> Vec<f32> {
+    fn run(opt: ModuleOptimizer) -> Vec<f32> {
+        run_at(opt, 1e-2)
+    }
+
+    fn run_at(mut opt: ModuleOptimizer, lr: f64) -> Vec<f32> {
         let device = crate::backend::training_device();
         let init: Vec<f32> = (0..600).map(|i| ((i * 37 % 101) as f32 / 50.0) - 1.0).collect();
         let mut model = Weights { w: Param::from_tensor(Tensor::from_data(TensorData::new(init, [20, 30]), &device)) };
@@ -217,9 +224,19 @@ mod tests {
             let target = Tensor::<2>::from_data(TensorData::new(target, [20, 30]), &device);
             let loss = (model.w.val() - target).square().sum();
             let grads = GradientsParams::from_grads(loss.backward(), &model);
-            model = opt.step(1e-2, model, grads);
+            model = opt.step(lr, model, grads);
         }
         model.w.val().into_data().try_to_vec::<f32>().unwrap()
+    }
+
+    /// A group's learning-rate factor is the same as a learning rate that many times larger.
+    #[test]
+    fn the_learning_rate_scale_multiplies_the_rate() {
+        let adam = |lr_scale| FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.0, lr_scale };
+        let scaled = run_at(adam(2.0).into(), 1e-2);
+        let doubled = run_at(adam(1.0).into(), 2e-2);
+        assert_eq!(scaled, doubled);
+        assert_ne!(scaled, run_at(adam(1.0).into(), 1e-2));
     }
 
     /// Same trajectory as burn's Adam (with weight decay) to rounding.
@@ -231,7 +248,7 @@ mod tests {
             .with_epsilon(1e-8)
             .with_weight_decay(Some(WeightDecayConfig::new(0.1)))
             .init());
-        let fused = run(FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.1 }.into());
+        let fused = run(FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.1, lr_scale: 1.0 }.into());
         for (a, b) in burn.iter().zip(&fused) {
             assert!((a - b).abs() < 1e-5, "{a} vs {b}");
         }

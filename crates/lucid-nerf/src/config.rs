@@ -116,6 +116,8 @@ pub struct TrainConfig {
     pub epsilon: f32,
     /// L2 weight decay on the MLP weights (not the grid).
     pub weight_decay: f32,
+    /// Factor on the learning rate of the hash table (the MLPs follow `learning_rate`).
+    pub table_learning_rate_scale: f32,
     /// The colour loss. Squared error measured better than Huber on validation views
     /// (`lucid train nerf out/bench/SET --steps N --set train.loss=huber`, README).
     pub loss: Loss,
@@ -169,6 +171,7 @@ impl Default for TrainConfig {
             beta2: 0.99,
             epsilon: 1e-15,
             weight_decay: 1e-6,
+            table_learning_rate_scale: 1.0,
             loss: Loss::L2,
             background: Background::Random,
             eval_background: Background::White,
@@ -276,6 +279,12 @@ impl NerfConfig {
                 return Err(format!("train.{name} must be in [0, 1), got {b}"));
             }
         }
+        if !(t.table_learning_rate_scale.is_finite() && t.table_learning_rate_scale > 0.0) {
+            return Err(format!(
+                "train.table_learning_rate_scale must be positive, got {}",
+                t.table_learning_rate_scale
+            ));
+        }
         if !(t.weight_decay.is_finite() && t.weight_decay >= 0.0) {
             return Err(format!("train.weight_decay must be zero or positive, got {}", t.weight_decay));
         }
@@ -333,6 +342,8 @@ mod tests {
         assert!(err.contains("d.toml") && err.contains("train.distortion"), "{err}");
         let err = NerfConfig::from_toml("[train]\naverage_window = nan\n", "w.toml").unwrap_err();
         assert!(err.contains("w.toml") && err.contains("train.average_window"), "{err}");
+        let err = NerfConfig::from_toml("[train]\ntable_learning_rate_scale = 0\n", "t.toml").unwrap_err();
+        assert!(err.contains("t.toml") && err.contains("train.table_learning_rate_scale"), "{err}");
         let err = NerfConfig::from_toml("[field.grid]\nlevels = 0\n", "g.toml").unwrap_err();
         assert!(err.contains("levels"), "{err}");
     }

@@ -167,9 +167,15 @@ fn gather_round_rows(rounds: &[Vec<f32>], width: usize, indices: &[u32]) -> Vec<
 /// burn's module optimiser; weight decay on the MLP weights only.
 pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
     let t = &config.train;
-    let adam = FusedAdam { beta1: t.beta1, beta2: t.beta2, epsilon: t.epsilon, weight_decay: 0.0 };
-    let mlp = FusedAdam { weight_decay: t.weight_decay, ..adam.clone() };
-    ModuleOptimizer::from(adam).with_group(ParamGroup::from_path("mlp"), mlp, None)
+    let table = FusedAdam {
+        beta1: t.beta1,
+        beta2: t.beta2,
+        epsilon: t.epsilon,
+        weight_decay: 0.0,
+        lr_scale: t.table_learning_rate_scale,
+    };
+    let mlp = FusedAdam { weight_decay: t.weight_decay, lr_scale: 1.0, ..table.clone() };
+    ModuleOptimizer::from(table).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
 /// Training ray `j` of the `n` cast through pixel `(x, y)`: through the centre of the `j`-th
