@@ -14,12 +14,19 @@ use burn::backend::autodiff::checkpoint::strategy::CheckpointStrategy;
 use burn::backend::{Autodiff, Backend, Dispatch, TensorMetadata, backend_extension, tensor::FloatTensor};
 use burn::optim::{AdamState, AdaptiveMomentumState, LearningRate, Optimizer};
 use burn::tensor::{Device, Tensor, TensorData};
+use std::sync::Arc;
+
 use rayon::prelude::*;
 
 use crate::{constant, to_host};
 
+/// Learning-rate factors over consecutive stretches of a parameter's elements, as `(end,
+/// factor)` pairs in order, the last `end` the parameter's length: e.g. one factor per level of
+/// a hash table.
+pub type RateSegments = Arc<[(usize, f32)]>;
+
 /// The scalars of one Adam step.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct AdamStep {
     /// Learning rate.
     pub lr: f32,
@@ -33,6 +40,8 @@ pub struct AdamStep {
     pub weight_decay: f32,
     /// 1-based step count of this parameter, for the bias corrections.
     pub time: usize,
+    /// Factors on `lr` per stretch of the elements (`None`: `lr` for all).
+    pub segments: Option<RateSegments>,
 }
 
 /// Elements per parallel task: large enough to amortise scheduling, small enough to balance.
@@ -41,9 +50,27 @@ const CHUNK: usize = 1 << 14;
 /// Updates `param`, `m` and `v` in place with gradient `grad` (all the same length).
 pub fn adam_update_slices(param: &mut [f32], grad: &[f32], m: &mut [f32], v: &mut [f32], s: AdamStep) {
     assert!(param.len() == grad.len() && m.len() == grad.len() && v.len() == grad.len());
+    let Some(segments) = &s.segments else {
+        return update_stretch(param, grad, m, v, &s, 1.0);
+    };
+    assert_eq!(
+        segments.last().map(|&(end, _)| end),
+        Some(param.len()),
+        "learning-rate segments must cover the parameter"
+    );
+    let mut start = 0;
+    for &(end, factor) in segments.iter() {
+        let r = start..end;
+        update_stretch(&mut param[r.clone()], &grad[r.clone()], &mut m[r.clone()], &mut v[r], &s, factor);
+        start = end;
+    }
+}
+
+/// [`adam_update_slices`] over one stretch, with `lr·factor`.
+fn update_stretch(param: &mut [f32], grad: &[f32], m: &mut [f32], v: &mut [f32], s: &AdamStep, factor: f32) {
     let t = s.time as i32;
     let bc2_sqrt = (1.0 - s.beta2.powi(t)).sqrt();
-    let step = s.lr * bc2_sqrt / (1.0 - s.beta1.powi(t));
+    let step = s.lr * factor * bc2_sqrt / (1.0 - s.beta1.powi(t));
     let eps = s.epsilon * bc2_sqrt;
     let (b1, b2, wd) = (s.beta1, s.beta2, s.weight_decay);
     param
@@ -157,6 +184,9 @@ pub struct FusedAdam {
     /// Factor on the learning rate the module optimiser passes in: one parameter group can
     /// learn faster or slower than the others on one schedule.
     pub lr_scale: f32,
+    /// Further factors per stretch of the elements, for a parameter of exactly the segments'
+    /// length (other parameters of the group get `lr_scale` alone).
+    pub segments: Option<RateSegments>,
 }
 
 impl Optimizer for FusedAdam {
@@ -180,6 +210,10 @@ impl Optimizer for FusedAdam {
             epsilon: self.epsilon,
             weight_decay: self.weight_decay,
             time,
+            segments: self
+                .segments
+                .clone()
+                .filter(|s| s.last().map(|&(end, _)| end) == Some(tensor.shape().num_elements())),
         };
         let (p, m, v) = <Dispatch as AdamOps>::adam_update(
             tensor.into_dispatch(),
@@ -232,11 +266,40 @@ mod tests {
     /// A group's learning-rate factor is the same as a learning rate that many times larger.
     #[test]
     fn the_learning_rate_scale_multiplies_the_rate() {
-        let adam = |lr_scale| FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.0, lr_scale };
+        let adam = |lr_scale| FusedAdam {
+            beta1: 0.9,
+            beta2: 0.99,
+            epsilon: 1e-8,
+            weight_decay: 0.0,
+            lr_scale,
+            segments: None,
+        };
         let scaled = run_at(adam(2.0).into(), 1e-2);
         let doubled = run_at(adam(1.0).into(), 2e-2);
         assert_eq!(scaled, doubled);
         assert_ne!(scaled, run_at(adam(1.0).into(), 1e-2));
+    }
+
+    /// Each stretch of the elements moves as it would with its factor on the whole parameter.
+    #[test]
+    fn segments_scale_their_own_elements() {
+        let adam = |lr_scale, segments| FusedAdam {
+            beta1: 0.9,
+            beta2: 0.99,
+            epsilon: 1e-8,
+            weight_decay: 0.0,
+            lr_scale,
+            segments,
+        };
+        let split: super::RateSegments = vec![(250, 2.0), (600, 0.5)].into();
+        let segmented = run(adam(1.0, Some(split)).into());
+        let (doubled, halved) = (run(adam(2.0, None).into()), run(adam(0.5, None).into()));
+        assert_eq!(segmented[..250], doubled[..250]);
+        assert_eq!(segmented[250..], halved[250..]);
+        assert_ne!(doubled[250..], halved[250..]);
+        // Segments that do not match the parameter's length leave it to `lr_scale`.
+        let other: super::RateSegments = vec![(10, 4.0)].into();
+        assert_eq!(run(adam(2.0, Some(other)).into()), doubled);
     }
 
     /// Same trajectory as burn's Adam (with weight decay) to rounding.
@@ -248,7 +311,9 @@ mod tests {
             .with_epsilon(1e-8)
             .with_weight_decay(Some(WeightDecayConfig::new(0.1)))
             .init());
-        let fused = run(FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.1, lr_scale: 1.0 }.into());
+        let fused =
+            run(FusedAdam { beta1: 0.9, beta2: 0.99, epsilon: 1e-8, weight_decay: 0.1, lr_scale: 1.0, segments: None }
+                .into());
         for (a, b) in burn.iter().zip(&fused) {
             assert!((a - b).abs() < 1e-5, "{a} vs {b}");
         }

@@ -26,7 +26,8 @@ use crate::data::ViewInfo;
 use crate::error_map::ErrorMap;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
-use crate::trainer::{NerfTrainer, optimizer};
+use crate::optimizer::optimizer;
+use crate::trainer::NerfTrainer;
 
 /// The kind this module reads and writes.
 pub const NERF_KIND: &str = "nerf";

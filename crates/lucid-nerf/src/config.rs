@@ -118,6 +118,9 @@ pub struct TrainConfig {
     pub weight_decay: f32,
     /// Factor on the learning rate of the hash table (the MLPs follow `learning_rate`).
     pub table_learning_rate_scale: f32,
+    /// The finest level's factor over the coarsest's on top of `table_learning_rate_scale`,
+    /// geometric over the levels between (1: one rate for the whole table).
+    pub table_level_learning_rate_ratio: f32,
     /// The colour loss. Squared error measured better than Huber on validation views
     /// (`lucid train nerf out/bench/SET --steps N --set train.loss=huber`, README).
     pub loss: Loss,
@@ -172,6 +175,7 @@ impl Default for TrainConfig {
             epsilon: 1e-15,
             weight_decay: 1e-6,
             table_learning_rate_scale: 1.0,
+            table_level_learning_rate_ratio: 1.0,
             loss: Loss::L2,
             background: Background::Random,
             eval_background: Background::White,
@@ -279,11 +283,13 @@ impl NerfConfig {
                 return Err(format!("train.{name} must be in [0, 1), got {b}"));
             }
         }
-        if !(t.table_learning_rate_scale.is_finite() && t.table_learning_rate_scale > 0.0) {
-            return Err(format!(
-                "train.table_learning_rate_scale must be positive, got {}",
-                t.table_learning_rate_scale
-            ));
+        for (name, factor) in [
+            ("table_learning_rate_scale", t.table_learning_rate_scale),
+            ("table_level_learning_rate_ratio", t.table_level_learning_rate_ratio),
+        ] {
+            if !(factor.is_finite() && factor > 0.0) {
+                return Err(format!("train.{name} must be positive, got {factor}"));
+            }
         }
         if !(t.weight_decay.is_finite() && t.weight_decay >= 0.0) {
             return Err(format!("train.weight_decay must be zero or positive, got {}", t.weight_decay));
@@ -344,6 +350,8 @@ mod tests {
         assert!(err.contains("w.toml") && err.contains("train.average_window"), "{err}");
         let err = NerfConfig::from_toml("[train]\ntable_learning_rate_scale = 0\n", "t.toml").unwrap_err();
         assert!(err.contains("t.toml") && err.contains("train.table_learning_rate_scale"), "{err}");
+        let err = NerfConfig::from_toml("[train]\ntable_level_learning_rate_ratio = inf\n", "r.toml").unwrap_err();
+        assert!(err.contains("r.toml") && err.contains("train.table_level_learning_rate_ratio"), "{err}");
         let err = NerfConfig::from_toml("[field.grid]\nlevels = 0\n", "g.toml").unwrap_err();
         assert!(err.contains("levels"), "{err}");
     }

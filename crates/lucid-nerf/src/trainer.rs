@@ -6,7 +6,6 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
-use burn::module::ParamGroup;
 use burn::optim::{GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
 use glam::{Vec2, Vec3};
@@ -20,16 +19,14 @@ use crate::config::{Background, Loss, NerfConfig};
 use crate::data::{ImageSet, ViewInfo, scene_box};
 use crate::encoding::hash_grid::FINEST_CELLS_PER_PIXEL;
 use crate::error_map::ErrorMap;
+use crate::loss;
 use crate::model::NerfModel;
 use crate::occupancy::OccupancyGrid;
 use crate::ops;
+use crate::optimizer::optimizer;
 use crate::render::batch::march_to_termination;
 use crate::render::march::RayMarcher;
 use crate::render::view::ViewRenderer;
-use lucid_burn::FusedAdam;
-
-/// Huber loss threshold.
-const HUBER_DELTA: f32 = 0.1;
 
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -161,21 +158,6 @@ fn gather_round_rows(rounds: &[Vec<f32>], width: usize, indices: &[u32]) -> Vec<
         }
     });
     out
-}
-
-/// Adam with the configured betas and ε ([`FusedAdam`], burn's update in one pass) in
-/// burn's module optimiser; weight decay on the MLP weights only.
-pub fn optimizer(config: &NerfConfig) -> ModuleOptimizer {
-    let t = &config.train;
-    let table = FusedAdam {
-        beta1: t.beta1,
-        beta2: t.beta2,
-        epsilon: t.epsilon,
-        weight_decay: 0.0,
-        lr_scale: t.table_learning_rate_scale,
-    };
-    let mlp = FusedAdam { weight_decay: t.weight_decay, lr_scale: 1.0, ..table.clone() };
-    ModuleOptimizer::from(table).with_group(ParamGroup::from_path("mlp"), mlp, None)
 }
 
 /// Training ray `j` of the `n` cast through pixel `(x, y)`: through the centre of the `j`-th
@@ -412,8 +394,12 @@ impl NerfTrainer {
         // Only whole pixels enter the loss: the rays of a pixel the cut split get no gradient.
         let pixels = kept / per_pixel;
         let kept_rays = pixels * per_pixel;
+        // A random background under the squared error has a closed-form expectation: no
+        // background is drawn and its noise leaves the gradient.
+        let expected = cfg.background == Background::Random && cfg.loss == Loss::L2;
         let backgrounds: Vec<[f32; 3]> = (0..pixels)
             .map(|_| match cfg.background {
+                _ if expected => [0.5; 3],
                 Background::White => [1.0; 3],
                 Background::Black => [0.0; 3],
                 Background::Random => [rng.uniform(), rng.uniform(), rng.uniform()],
@@ -427,6 +413,7 @@ impl NerfTrainer {
                 (0..3).map(move |c| p[c] * p[3] + bg[c] * (1.0 - p[3]))
             })
             .collect();
+        let target_alpha: Vec<f32> = (0..pixels).map(|i| targets[i * per_pixel][3]).collect();
         let bg: Vec<f32> =
             backgrounds.iter().flat_map(|b| std::iter::repeat_n(b, per_pixel)).flatten().copied().collect();
         let device = &self.device;
@@ -447,27 +434,30 @@ impl NerfTrainer {
         let opacity = out.slice([0..kept_rays, 3..4]);
         let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept_rays, 3]), device);
         let target = Tensor::<2>::from_data(TensorData::new(target, [pixels, 3]), device);
-        let mut pred = rgb + (opacity.neg() + 1.0) * bg;
+        let mut pred = rgb + (opacity.clone().neg() + 1.0) * bg;
+        let mut opacity = opacity;
         if per_pixel > 1 {
             pred = pred.reshape([pixels, per_pixel, 3]).mean_dim(1).reshape([pixels, 3]);
+            opacity = opacity.reshape([pixels, per_pixel, 1]).mean_dim(1).reshape([pixels, 1]);
         }
         let diff = pred - target;
-        let squared = diff.clone().square();
+        let squared = if expected {
+            let target_alpha = Tensor::<2>::from_data(TensorData::new(target_alpha, [pixels, 1]), device);
+            loss::squared_error_over_random_background(diff.clone(), target_alpha - opacity)
+        } else {
+            diff.clone().square()
+        };
         let mse = squared.clone().mean().into_data().try_to_vec::<f32>().expect("f32")[0];
         if let Some(map) = &mut self.error_map {
-            let per_ray = squared.sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
+            let per_ray = squared.clone().sum_dim(1).into_data().try_to_vec::<f32>().expect("f32");
             for (&(img, k), &e) in picked.iter().zip(&per_ray) {
                 map.record(map.block_of(img, k), e);
             }
             map.rebuild();
         }
         let loss = match cfg.loss {
-            Loss::L2 => diff.square().mean(),
-            Loss::Huber => {
-                let a = diff.abs();
-                let q = a.clone().clamp_max(HUBER_DELTA);
-                (q.clone().square() * 0.5 + (a - q) * HUBER_DELTA).mean()
-            }
+            Loss::L2 => squared.mean(),
+            Loss::Huber => loss::huber(diff),
         };
         let loss_value = loss.clone().into_data().try_to_vec::<f32>().expect("f32")[0];
         lap(&mut timings.composite);

@@ -119,7 +119,10 @@ pub struct SplatOptimizer {
 impl SplatOptimizer {
     /// Fresh state.
     pub fn new(beta1: f32, beta2: f32, epsilon: f32) -> Self {
-        Self { adam: FusedAdam { beta1, beta2, epsilon, weight_decay: 0.0, lr_scale: 1.0 }, states: Default::default() }
+        Self {
+            adam: FusedAdam { beta1, beta2, epsilon, weight_decay: 0.0, lr_scale: 1.0, segments: None },
+            states: Default::default(),
+        }
     }
 
     /// One step of every parameter kind that has a gradient in `grads`, with learning rates
