@@ -174,7 +174,7 @@ impl Default for TrainConfig {
             beta2: 0.99,
             epsilon: 1e-15,
             weight_decay: 1e-6,
-            table_learning_rate_scale: 1.0,
+            table_learning_rate_scale: 8.0,
             table_level_learning_rate_ratio: 1.0,
             loss: Loss::L2,
             background: Background::Random,
