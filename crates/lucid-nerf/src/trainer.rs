@@ -413,7 +413,6 @@ impl NerfTrainer {
                 (0..3).map(move |c| p[c] * p[3] + bg[c] * (1.0 - p[3]))
             })
             .collect();
-        let target_alpha: Vec<f32> = (0..pixels).map(|i| targets[i * per_pixel][3]).collect();
         let bg: Vec<f32> =
             backgrounds.iter().flat_map(|b| std::iter::repeat_n(b, per_pixel)).flatten().copied().collect();
         let device = &self.device;
@@ -435,13 +434,16 @@ impl NerfTrainer {
         let bg = Tensor::<2>::from_data(TensorData::new(bg, [kept_rays, 3]), device);
         let target = Tensor::<2>::from_data(TensorData::new(target, [pixels, 3]), device);
         let mut pred = rgb + (opacity.clone().neg() + 1.0) * bg;
-        let mut opacity = opacity;
         if per_pixel > 1 {
             pred = pred.reshape([pixels, per_pixel, 3]).mean_dim(1).reshape([pixels, 3]);
-            opacity = opacity.reshape([pixels, per_pixel, 1]).mean_dim(1).reshape([pixels, 1]);
         }
         let diff = pred - target;
         let squared = if expected {
+            let opacity = match per_pixel {
+                1 => opacity,
+                n => opacity.reshape([pixels, n, 1]).mean_dim(1).reshape([pixels, 1]),
+            };
+            let target_alpha: Vec<f32> = (0..pixels).map(|i| targets[i * per_pixel][3]).collect();
             let target_alpha = Tensor::<2>::from_data(TensorData::new(target_alpha, [pixels, 1]), device);
             loss::squared_error_over_random_background(diff.clone(), target_alpha - opacity)
         } else {
