@@ -51,19 +51,31 @@ impl NerfModel {
         Self { table: Param::from_tensor(one([1, 1])), mlp: Param::from_tensor(one([1, 1]).reshape([1])) }
     }
 
-    /// `σ, r, g, b` at normalised positions along unit directions.
-    pub fn field(&self, positions: Tensor<2>, directions: Tensor<2>, config: FieldConfig) -> Tensor<2> {
-        ops::field(positions, directions, self.table.val(), self.mlp.val(), config)
+    /// `σ, r, g, b` at normalised positions (`S×3`) with their footprints (`S`, see
+    /// [`crate::encoding::hash_grid::HashGridLayout::weigh_by_footprint`]) along unit directions.
+    pub fn field(
+        &self,
+        positions: Tensor<2>,
+        footprints: Tensor<1>,
+        directions: Tensor<2>,
+        config: FieldConfig,
+    ) -> Tensor<2> {
+        ops::field(positions, footprints, directions, self.table.val(), self.mlp.val(), config)
     }
 
     /// Density only, never tracked.
-    pub fn density(&self, positions: Tensor<2>, config: FieldConfig) -> Tensor<1> {
-        ops::field_density(positions, self.table.val(), self.mlp.val(), config)
+    pub fn density(&self, positions: Tensor<2>, footprints: Tensor<1>, config: FieldConfig) -> Tensor<1> {
+        ops::field_density(positions, footprints, self.table.val(), self.mlp.val(), config)
     }
 
     /// Density and the activations that gave it, never tracked: see [`Self::field_from_density`].
-    pub fn density_saving(&self, positions: Tensor<2>, config: FieldConfig) -> (Tensor<1>, Tensor<2>) {
-        ops::field_density_saving(positions, self.table.val(), self.mlp.val(), config)
+    pub fn density_saving(
+        &self,
+        positions: Tensor<2>,
+        footprints: Tensor<1>,
+        config: FieldConfig,
+    ) -> (Tensor<1>, Tensor<2>) {
+        ops::field_density_saving(positions, footprints, self.table.val(), self.mlp.val(), config)
     }
 
     /// [`Self::field`] from the activations [`Self::density_saving`] gave at the positions
@@ -71,10 +83,11 @@ impl NerfModel {
     pub fn field_from_density(
         &self,
         positions: Tensor<2>,
+        footprints: Tensor<1>,
         directions: Tensor<2>,
         density: Tensor<2>,
         config: FieldConfig,
     ) -> Tensor<2> {
-        ops::field_from_density(positions, directions, density, self.table.val(), self.mlp.val(), config)
+        ops::field_from_density(positions, footprints, directions, density, self.table.val(), self.mlp.val(), config)
     }
 }

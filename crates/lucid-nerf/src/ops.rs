@@ -5,7 +5,7 @@
 //! backends use the default bodies (host round trip) until they get kernels of their own.
 //! On the autodiff backend the forwards register backward steps: the field's gives
 //! `∂loss/∂table` and `∂loss/∂mlp` from the activations it saved; the compositing's gives
-//! `∂loss/∂(σ, rgb)`. Positions, directions and sample spacing are constants.
+//! `∂loss/∂(σ, rgb)`. Positions, footprints, directions and sample spacing are constants.
 
 #![cfg_attr(feature = "ndarray", allow(deprecated))]
 
@@ -66,23 +66,25 @@ pub trait NerfOps: Backend {
     /// `σ, r, g, b` (`S×4`) at `positions` (`S×3` in `[0,1]`) along unit `directions` (`S×3`).
     fn field_forward(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        field_host::<Self>(positions, directions, None, table, mlp, config, false).0
+        field_host::<Self>(positions, footprints, directions, None, table, mlp, config, false).0
     }
 
     /// As [`Self::field_forward`], also returning the activations the backward needs.
     fn field_forward_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
-        let (out, saved) = field_host::<Self>(positions, directions, None, table, mlp, config, true);
+        let (out, saved) = field_host::<Self>(positions, footprints, directions, None, table, mlp, config, true);
         (out, saved.expect("saved activations"))
     }
 
@@ -91,31 +93,35 @@ pub trait NerfOps: Backend {
     /// gave them with these weights).
     fn field_from_density(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         density: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        field_host::<Self>(positions, directions, Some(density), table, mlp, config, false).0
+        field_host::<Self>(positions, footprints, directions, Some(density), table, mlp, config, false).0
     }
 
     /// As [`Self::field_from_density`], also returning the activations the backward needs.
     fn field_from_density_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         density: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
-        let (out, saved) = field_host::<Self>(positions, directions, Some(density), table, mlp, config, true);
+        let (out, saved) =
+            field_host::<Self>(positions, footprints, directions, Some(density), table, mlp, config, true);
         (out, saved.expect("saved activations"))
     }
 
     /// `(∂loss/∂table, ∂loss/∂mlp)` from `∂loss/∂out`.
     fn field_backward(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         saved: FloatTensor<Self>,
         grad_out: FloatTensor<Self>,
@@ -125,9 +131,14 @@ pub trait NerfOps: Backend {
         let layout = config.layout();
         let mut gt = zeros(layout.grid.entries * layout.grid.features);
         let mut gm = vec![0.0; layout.mlp_params()];
-        let (pos, mlp, saved, grad) =
-            (to_host::<Self>(positions), to_host::<Self>(mlp), to_host::<Self>(saved), to_host::<Self>(grad_out));
-        layout.backward(&pos, &mlp, &saved, &grad, &mut gt, &mut gm);
+        let (pos, foot, mlp, saved, grad) = (
+            to_host::<Self>(positions),
+            to_host::<Self>(footprints),
+            to_host::<Self>(mlp),
+            to_host::<Self>(saved),
+            to_host::<Self>(grad_out),
+        );
+        layout.backward(&pos, &foot, &mlp, &saved, &grad, &mut gt, &mut gm);
         let gt = Self::float_from_data(TensorData::new(gt, [layout.grid.entries, layout.grid.features]), &device);
         let gm = Self::float_from_data(TensorData::new(gm, [layout.mlp_params()]), &device);
         (gt, gm)
@@ -136,6 +147,7 @@ pub trait NerfOps: Backend {
     /// Density only (`S`), for the occupancy grid.
     fn field_density(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
@@ -143,7 +155,13 @@ pub trait NerfOps: Backend {
         let device = positions.device();
         let pos = to_host::<Self>(positions);
         let mut out = vec![0.0; pos.len() / 3];
-        config.layout().density(&pos, &to_host::<Self>(table), &to_host::<Self>(mlp), &mut out);
+        config.layout().density(
+            &pos,
+            &to_host::<Self>(footprints),
+            &to_host::<Self>(table),
+            &to_host::<Self>(mlp),
+            &mut out,
+        );
         let n = out.len();
         Self::float_from_data(TensorData::new(out, [n]), &device)
     }
@@ -152,6 +170,7 @@ pub trait NerfOps: Backend {
     /// [`crate::field::FieldLayout::density_width`]), for [`Self::field_forward`] to go on from.
     fn field_density_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
@@ -161,7 +180,14 @@ pub trait NerfOps: Backend {
         let pos = to_host::<Self>(positions);
         let n = pos.len() / 3;
         let (mut out, mut saved) = (vec![0.0; n], zeros(n * layout.density_width()));
-        layout.density_saving(&pos, &to_host::<Self>(table), &to_host::<Self>(mlp), &mut out, &mut saved);
+        layout.density_saving(
+            &pos,
+            &to_host::<Self>(footprints),
+            &to_host::<Self>(table),
+            &to_host::<Self>(mlp),
+            &mut out,
+            &mut saved,
+        );
         (
             Self::float_from_data(TensorData::new(out, [n]), &device),
             Self::float_from_data(TensorData::new(saved, [n, layout.density_width()]), &device),
@@ -199,8 +225,10 @@ fn zeros(n: usize) -> Vec<f32> {
     zeros
 }
 
+#[allow(clippy::too_many_arguments)] // the op's tensors and settings, as the trait passes them
 fn field_host<B: Backend>(
     positions: FloatTensor<B>,
+    footprints: FloatTensor<B>,
     directions: FloatTensor<B>,
     density: Option<FloatTensor<B>>,
     table: FloatTensor<B>,
@@ -218,8 +246,8 @@ fn field_host<B: Backend>(
     match density {
         Some(d) => layout.forward_from_density(&to_host::<B>(d), &dir, &mlp, &mut out, saved.as_deref_mut()),
         None => {
-            let (pos, table) = (to_host::<B>(positions), to_host::<B>(table));
-            layout.forward(&pos, &dir, &table, &mlp, &mut out, saved.as_deref_mut())
+            let (pos, foot, table) = (to_host::<B>(positions), to_host::<B>(footprints), to_host::<B>(table));
+            layout.forward(&pos, &foot, &dir, &table, &mlp, &mut out, saved.as_deref_mut())
         }
     }
     let out = B::float_from_data(TensorData::new(out, [s, 4]), &device);
@@ -243,8 +271,10 @@ mod flex_impl {
 
     /// The field's forward on flex storage, from the positions or the density's activations,
     /// and the activations the backward needs if `save`.
+    #[allow(clippy::too_many_arguments)] // the op's tensors and settings, as the trait passes them
     fn forward(
         positions: &FlexTensor,
+        footprints: &FlexTensor,
         directions: &FlexTensor,
         density: Option<&FlexTensor>,
         table: &FlexTensor,
@@ -261,7 +291,8 @@ mod flex_impl {
         match density {
             Some(d) => layout.forward_from_density(&values(d), &dir, &values(mlp), &mut out, saved.as_deref_mut()),
             None => {
-                layout.forward(&values(positions), &dir, &values(table), &values(mlp), &mut out, saved.as_deref_mut())
+                let (pos, foot) = (values(positions), values(footprints));
+                layout.forward(&pos, &foot, &dir, &values(table), &values(mlp), &mut out, saved.as_deref_mut())
             }
         }
         (tensor(out, [s, 4]), saved.map(|v| tensor(v, [s, width])))
@@ -270,50 +301,56 @@ mod flex_impl {
     impl NerfOps for Flex {
         fn field_forward(
             positions: FlexTensor,
+            footprints: FlexTensor,
             directions: FlexTensor,
             table: FlexTensor,
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> FlexTensor {
-            forward(&positions, &directions, None, &table, &mlp, config, false).0
+            forward(&positions, &footprints, &directions, None, &table, &mlp, config, false).0
         }
 
         fn field_forward_saving(
             positions: FlexTensor,
+            footprints: FlexTensor,
             directions: FlexTensor,
             table: FlexTensor,
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> (FlexTensor, FlexTensor) {
-            let (out, saved) = forward(&positions, &directions, None, &table, &mlp, config, true);
+            let (out, saved) = forward(&positions, &footprints, &directions, None, &table, &mlp, config, true);
             (out, saved.expect("saved activations"))
         }
 
         fn field_from_density(
             positions: FlexTensor,
+            footprints: FlexTensor,
             directions: FlexTensor,
             density: FlexTensor,
             table: FlexTensor,
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> FlexTensor {
-            forward(&positions, &directions, Some(&density), &table, &mlp, config, false).0
+            forward(&positions, &footprints, &directions, Some(&density), &table, &mlp, config, false).0
         }
 
         fn field_from_density_saving(
             positions: FlexTensor,
+            footprints: FlexTensor,
             directions: FlexTensor,
             density: FlexTensor,
             table: FlexTensor,
             mlp: FlexTensor,
             config: FieldConfig,
         ) -> (FlexTensor, FlexTensor) {
-            let (out, saved) = forward(&positions, &directions, Some(&density), &table, &mlp, config, true);
+            let (out, saved) =
+                forward(&positions, &footprints, &directions, Some(&density), &table, &mlp, config, true);
             (out, saved.expect("saved activations"))
         }
 
         fn field_backward(
             positions: FlexTensor,
+            footprints: FlexTensor,
             mlp: FlexTensor,
             saved: FlexTensor,
             grad_out: FlexTensor,
@@ -322,20 +359,28 @@ mod flex_impl {
             let layout = config.layout();
             let mut gt = zeros(layout.grid.entries * layout.grid.features);
             let mut gm = vec![0.0; layout.mlp_params()];
-            layout.backward(&values(&positions), &values(&mlp), &values(&saved), &values(&grad_out), &mut gt, &mut gm);
+            let (pos, foot) = (values(&positions), values(&footprints));
+            layout.backward(&pos, &foot, &values(&mlp), &values(&saved), &values(&grad_out), &mut gt, &mut gm);
             (tensor(gt, [layout.grid.entries, layout.grid.features]), tensor(gm, [layout.mlp_params()]))
         }
 
-        fn field_density(positions: FlexTensor, table: FlexTensor, mlp: FlexTensor, config: FieldConfig) -> FlexTensor {
+        fn field_density(
+            positions: FlexTensor,
+            footprints: FlexTensor,
+            table: FlexTensor,
+            mlp: FlexTensor,
+            config: FieldConfig,
+        ) -> FlexTensor {
             let pos = values(&positions);
             let mut out = vec![0.0; pos.len() / 3];
-            config.layout().density(&pos, &values(&table), &values(&mlp), &mut out);
+            config.layout().density(&pos, &values(&footprints), &values(&table), &values(&mlp), &mut out);
             let n = out.len();
             tensor(out, [n])
         }
 
         fn field_density_saving(
             positions: FlexTensor,
+            footprints: FlexTensor,
             table: FlexTensor,
             mlp: FlexTensor,
             config: FieldConfig,
@@ -344,7 +389,7 @@ mod flex_impl {
             let pos = values(&positions);
             let n = pos.len() / 3;
             let (mut out, mut saved) = (vec![0.0; n], zeros(n * layout.density_width()));
-            layout.density_saving(&pos, &values(&table), &values(&mlp), &mut out, &mut saved);
+            layout.density_saving(&pos, &values(&footprints), &values(&table), &values(&mlp), &mut out, &mut saved);
             (tensor(out, [n]), tensor(saved, [n, layout.density_width()]))
         }
 
@@ -369,16 +414,18 @@ impl NerfOps for burn::backend::Cube {}
 impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
     fn field_forward(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        tracked_field::<B, C>(positions, directions, None, table, mlp, config)
+        tracked_field::<B, C>(positions, footprints, directions, None, table, mlp, config)
     }
 
     fn field_forward_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
@@ -386,6 +433,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
         let (out, saved) = B::field_forward_saving(
             positions.into_primitive(),
+            footprints.into_primitive(),
             directions.into_primitive(),
             table.into_primitive(),
             mlp.into_primitive(),
@@ -396,17 +444,19 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
 
     fn field_from_density(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         density: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        tracked_field::<B, C>(positions, directions, Some(density.into_primitive()), table, mlp, config)
+        tracked_field::<B, C>(positions, footprints, directions, Some(density.into_primitive()), table, mlp, config)
     }
 
     fn field_from_density_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         directions: FloatTensor<Self>,
         density: FloatTensor<Self>,
         table: FloatTensor<Self>,
@@ -415,6 +465,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
         let (out, saved) = B::field_from_density_saving(
             positions.into_primitive(),
+            footprints.into_primitive(),
             directions.into_primitive(),
             density.into_primitive(),
             table.into_primitive(),
@@ -426,6 +477,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
 
     fn field_backward(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         saved: FloatTensor<Self>,
         grad_out: FloatTensor<Self>,
@@ -434,6 +486,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
         // Second derivatives are not needed by any trainer: the results are constants.
         let (gt, gm) = B::field_backward(
             positions.into_primitive(),
+            footprints.into_primitive(),
             mlp.into_primitive(),
             saved.into_primitive(),
             grad_out.into_primitive(),
@@ -444,22 +497,35 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
 
     fn field_density(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> FloatTensor<Self> {
-        let out = B::field_density(positions.into_primitive(), table.into_primitive(), mlp.into_primitive(), config);
+        let out = B::field_density(
+            positions.into_primitive(),
+            footprints.into_primitive(),
+            table.into_primitive(),
+            mlp.into_primitive(),
+            config,
+        );
         constant::<B, C>(out)
     }
 
     fn field_density_saving(
         positions: FloatTensor<Self>,
+        footprints: FloatTensor<Self>,
         table: FloatTensor<Self>,
         mlp: FloatTensor<Self>,
         config: FieldConfig,
     ) -> (FloatTensor<Self>, FloatTensor<Self>) {
-        let (out, saved) =
-            B::field_density_saving(positions.into_primitive(), table.into_primitive(), mlp.into_primitive(), config);
+        let (out, saved) = B::field_density_saving(
+            positions.into_primitive(),
+            footprints.into_primitive(),
+            table.into_primitive(),
+            mlp.into_primitive(),
+            config,
+        );
         (constant::<B, C>(out), constant::<B, C>(saved))
     }
 
@@ -502,6 +568,7 @@ impl<B: Backend + NerfOps, C: CheckpointStrategy> NerfOps for Autodiff<B, C> {
 /// backward goes through them to both.
 fn tracked_field<B: Backend + NerfOps, C: CheckpointStrategy>(
     positions: FloatTensor<Autodiff<B, C>>,
+    footprints: FloatTensor<Autodiff<B, C>>,
     directions: FloatTensor<Autodiff<B, C>>,
     density: Option<FloatTensor<B>>,
     table: FloatTensor<Autodiff<B, C>>,
@@ -512,12 +579,12 @@ fn tracked_field<B: Backend + NerfOps, C: CheckpointStrategy>(
     struct FieldBackward;
 
     impl<B: Backend + NerfOps> Backward<B, 2> for FieldBackward {
-        type State = (FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FieldConfig);
+        type State = (FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FloatTensor<B>, FieldConfig);
 
         fn backward(self, ops: Ops<Self::State, 2>, grads: &mut Gradients, _checkpointer: &mut Checkpointer) {
-            let (positions, mlp, saved, config) = ops.state;
+            let (positions, footprints, mlp, saved, config) = ops.state;
             let grad_out = grads.consume::<B>(&ops.node);
-            let (gt, gm) = B::field_backward(positions, mlp, saved, grad_out, config);
+            let (gt, gm) = B::field_backward(positions, footprints, mlp, saved, grad_out, config);
             let [table_node, mlp_node] = ops.parents;
             if let Some(node) = table_node {
                 grads.register::<B>(node.id, gt);
@@ -529,19 +596,35 @@ fn tracked_field<B: Backend + NerfOps, C: CheckpointStrategy>(
     }
 
     let (table_node, mlp_node) = (table.node(), mlp.node());
-    let (positions, directions) = (positions.into_primitive(), directions.into_primitive());
+    let (positions, footprints, directions) =
+        (positions.into_primitive(), footprints.into_primitive(), directions.into_primitive());
     let (table, mlp) = (table.into_primitive(), mlp.into_primitive());
     match FieldBackward.prepare::<C>([table_node, mlp_node]).compute_bound().stateful() {
         OpsKind::Tracked(prep) => {
             let (out, saved) = match density {
-                Some(d) => B::field_from_density_saving(positions.clone(), directions, d, table, mlp.clone(), config),
-                None => B::field_forward_saving(positions.clone(), directions, table, mlp.clone(), config),
+                Some(d) => B::field_from_density_saving(
+                    positions.clone(),
+                    footprints.clone(),
+                    directions,
+                    d,
+                    table,
+                    mlp.clone(),
+                    config,
+                ),
+                None => B::field_forward_saving(
+                    positions.clone(),
+                    footprints.clone(),
+                    directions,
+                    table,
+                    mlp.clone(),
+                    config,
+                ),
             };
-            prep.finish((positions, mlp, saved, config), out)
+            prep.finish((positions, footprints, mlp, saved, config), out)
         }
         OpsKind::UnTracked(prep) => prep.finish(match density {
-            Some(d) => B::field_from_density(positions, directions, d, table, mlp, config),
-            None => B::field_forward(positions, directions, table, mlp, config),
+            Some(d) => B::field_from_density(positions, footprints, directions, d, table, mlp, config),
+            None => B::field_forward(positions, footprints, directions, table, mlp, config),
         }),
     }
 }
@@ -549,6 +632,7 @@ fn tracked_field<B: Backend + NerfOps, C: CheckpointStrategy>(
 /// Evaluates the field: `S×4` (`σ, r, g, b`), differentiable with respect to `table` and `mlp`.
 pub fn field(
     positions: Tensor<2>,
+    footprints: Tensor<1>,
     directions: Tensor<2>,
     table: Tensor<2>,
     mlp: Tensor<1>,
@@ -556,6 +640,7 @@ pub fn field(
 ) -> Tensor<2> {
     let out = <Dispatch as NerfOps>::field_forward(
         positions.into_dispatch(),
+        footprints.into_dispatch(),
         directions.into_dispatch(),
         table.into_dispatch(),
         mlp.into_dispatch(),
@@ -569,6 +654,7 @@ pub fn field(
 /// without evaluating the encoding and the density MLP again.
 pub fn field_from_density(
     positions: Tensor<2>,
+    footprints: Tensor<1>,
     directions: Tensor<2>,
     density: Tensor<2>,
     table: Tensor<2>,
@@ -577,6 +663,7 @@ pub fn field_from_density(
 ) -> Tensor<2> {
     let out = <Dispatch as NerfOps>::field_from_density(
         positions.into_dispatch(),
+        footprints.into_dispatch(),
         directions.into_dispatch(),
         density.into_dispatch(),
         table.into_dispatch(),
@@ -590,12 +677,14 @@ pub fn field_from_density(
 /// [`crate::field::FieldLayout::density_width`]), never tracked.
 pub fn field_density_saving(
     positions: Tensor<2>,
+    footprints: Tensor<1>,
     table: Tensor<2>,
     mlp: Tensor<1>,
     config: FieldConfig,
 ) -> (Tensor<1>, Tensor<2>) {
     let (out, saved) = <Dispatch as NerfOps>::field_density_saving(
         positions.into_dispatch(),
+        footprints.into_dispatch(),
         table.into_dispatch(),
         mlp.into_dispatch(),
         config,
@@ -604,9 +693,16 @@ pub fn field_density_saving(
 }
 
 /// The field's density only (`S`), never tracked.
-pub fn field_density(positions: Tensor<2>, table: Tensor<2>, mlp: Tensor<1>, config: FieldConfig) -> Tensor<1> {
+pub fn field_density(
+    positions: Tensor<2>,
+    footprints: Tensor<1>,
+    table: Tensor<2>,
+    mlp: Tensor<1>,
+    config: FieldConfig,
+) -> Tensor<1> {
     let out = <Dispatch as NerfOps>::field_density(
         positions.into_dispatch(),
+        footprints.into_dispatch(),
         table.into_dispatch(),
         mlp.into_dispatch(),
         config,

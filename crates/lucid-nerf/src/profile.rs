@@ -43,6 +43,9 @@ pub fn time_kernels(config: &FieldConfig, samples: usize, repeats: usize) -> Ker
     let table: Vec<f32> =
         (0..layout.grid.entries * layout.grid.features).map(|_| 1e-2 * (rng.uniform() - 0.5)).collect();
     let mlp: Vec<f32> = (0..layout.mlp_params()).map(|_| 0.3 * (rng.uniform() - 0.5)).collect();
+    // A 200-pixel view's footprint at the centre of a box it sees from about its own size
+    // away (it only matters with `field.grid.antialias` on).
+    let foot = vec![0.002f32; samples];
     let best = |f: &mut dyn FnMut()| {
         (0..repeats.max(1))
             .map(|_| {
@@ -55,14 +58,15 @@ pub fn time_kernels(config: &FieldConfig, samples: usize, repeats: usize) -> Ker
     let mut enc = vec![0.0; samples * layout.grid.output_dim()];
     let encoding = best(&mut || layout.grid.forward(&pos, &table, &mut enc));
     let mut out = vec![0.0; 4 * samples];
-    let field_forward = best(&mut || layout.forward(&pos, &dir, &table, &mlp, &mut out, None));
+    let field_forward = best(&mut || layout.forward(&pos, &foot, &dir, &table, &mlp, &mut out, None));
     let mut saved = vec![0.0; samples * layout.saved_per_sample()];
-    let field_forward_saving = best(&mut || layout.forward(&pos, &dir, &table, &mlp, &mut out, Some(&mut saved)));
+    let field_forward_saving =
+        best(&mut || layout.forward(&pos, &foot, &dir, &table, &mlp, &mut out, Some(&mut saved)));
     let grad_out: Vec<f32> = (0..4 * samples).map(|_| rng.uniform() - 0.5).collect();
     let field_backward = best(&mut || {
         let mut gt = vec![0.0; table.len()];
         let mut gm = vec![0.0; mlp.len()];
-        layout.backward(&pos, &mlp, &saved, &grad_out, &mut gt, &mut gm);
+        layout.backward(&pos, &foot, &mlp, &saved, &grad_out, &mut gt, &mut gm);
     });
     let encoding_backward = best(&mut || {
         let mut gt = vec![0.0; table.len()];

@@ -359,7 +359,7 @@ impl NerfTrainer {
             picked.push((img, k));
         }
         let seed = mix(cfg.seed ^ mix(self.step as u64));
-        let marcher = self.marcher();
+        let marcher = self.marcher().with_rays_per_pixel(per_pixel);
         let mut density_seconds = 0.0;
         // The density's activations at every sample evaluated, round after round, for the
         // field to go on from.
@@ -370,11 +370,12 @@ impl NerfTrainer {
             |i| targets[i][3] < TRANSPARENT,
             &marcher,
             &self.grid,
-            |positions| {
+            |positions, footprints| {
                 let start = Instant::now();
-                let pos =
-                    Tensor::<2>::from_data(TensorData::new(positions.to_vec(), [positions.len() / 3, 3]), &self.device);
-                let (sigma, act) = self.model.density_saving(pos, self.config.field);
+                let n = footprints.len();
+                let pos = Tensor::<2>::from_data(TensorData::new(positions.to_vec(), [n, 3]), &self.device);
+                let foot = Tensor::<1>::from_data(TensorData::new(footprints.to_vec(), [n]), &self.device);
+                let (sigma, act) = self.model.density_saving(pos, foot, self.config.field);
                 activations.push(act.into_data().try_into_vec::<f32>().expect("f32"));
                 density_seconds += start.elapsed().as_secs_f64();
                 sigma.into_data().try_into_vec::<f32>().expect("f32")
@@ -417,13 +418,14 @@ impl NerfTrainer {
             backgrounds.iter().flat_map(|b| std::iter::repeat_n(b, per_pixel)).flatten().copied().collect();
         let device = &self.device;
         let pos = Tensor::<2>::from_data(TensorData::new(batch.positions, [s, 3]), device);
+        let foot = Tensor::<1>::from_data(TensorData::new(batch.footprints, [s]), device);
         let dir = Tensor::<2>::from_data(TensorData::new(batch.directions, [s, 3]), device);
         let width = self.config.field.layout().density_width();
         let density = Tensor::<2>::from_data(
             TensorData::new(gather_round_rows(&activations, width, &batch.evaluated), [s, width]),
             device,
         );
-        let raw = self.model.field_from_density(pos, dir, density, self.config.field);
+        let raw = self.model.field_from_density(pos, foot, dir, density, self.config.field);
         lap(&mut timings.field);
         // The distortion loss's mean over the rays, its distances in box diagonals.
         let (lo, hi) = self.grid.bounds();
@@ -515,7 +517,10 @@ impl NerfTrainer {
             .collect();
         let n = chosen.len();
         let pos = Tensor::<2>::from_data(TensorData::new(positions, [n, 3]), &self.device);
-        let sigma = self.model.density(pos, self.config.field).into_data().try_to_vec::<f32>().expect("f32");
+        // The grid judges a cell by the density at the scale of its own width (a box of one
+        // cell, in box units), not at one pixel's: views from near and far both cross it.
+        let foot = Tensor::<1>::from_data(TensorData::new(vec![1.0 / (res * 12f32.sqrt()); n], [n]), &self.device);
+        let sigma = self.model.density(pos, foot, self.config.field).into_data().try_to_vec::<f32>().expect("f32");
         let step = self.marcher().min_step();
         let obs: Vec<(u32, f32)> = chosen.iter().zip(&sigma).map(|(&c, &s)| (c, s * step)).collect();
         self.grid.update(&obs, occ.decay, occ.threshold);
@@ -558,7 +563,7 @@ impl NerfTrainer {
             model,
             config: self.config.field,
             grid: &self.grid,
-            marcher: self.marcher(),
+            marcher: self.marcher().with_rays_per_pixel(self.config.train.eval_pixel_rays),
             min_transmittance: self.config.train.min_transmittance,
             background,
             device: crate::backend::default_device(),

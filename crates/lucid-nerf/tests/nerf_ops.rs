@@ -18,6 +18,9 @@ fn config() -> FieldConfig {
             log2_table_size: 7,
             base_resolution: 2.0,
             finest_resolution: 8.0,
+            // Footprint weights on (the footprints below weigh the finer levels by 0.3–0.9),
+            // so that their gradient is checked too.
+            antialias: 1.0,
         },
         hidden: 8,
         geometry_features: 4,
@@ -30,6 +33,7 @@ fn config() -> FieldConfig {
 
 struct Case {
     pos: Vec<f32>,
+    foot: Vec<f32>,
     dir: Vec<f32>,
     table: Vec<f32>,
     mlp: Vec<f32>,
@@ -41,7 +45,7 @@ fn case() -> Case {
     let layout = config().layout();
     let mut rng = Rng::new(11, 0);
     let mut samples = PackedSamples { offsets: vec![0], ..Default::default() };
-    let (mut pos, mut dir) = (Vec::new(), Vec::new());
+    let (mut pos, mut foot, mut dir) = (Vec::new(), Vec::new(), Vec::new());
     for n in [4, 6, 0, 3] {
         let d = [0.6f32, 0.0, 0.8];
         let o = [rng.uniform() * 0.3, rng.uniform() * 0.3, 0.1];
@@ -51,6 +55,7 @@ fn case() -> Case {
             samples.t.push(t);
             samples.dt.push(dt);
             pos.extend((0..3).map(|a| o[a] + t * d[a]));
+            foot.push(0.03 + 0.2 * t);
             dir.extend(d);
             t += dt;
         }
@@ -58,6 +63,7 @@ fn case() -> Case {
     }
     Case {
         pos,
+        foot,
         dir,
         table: (0..layout.grid.entries * 2).map(|_| rng.uniform() - 0.5).collect(),
         mlp: (0..layout.mlp_params()).map(|_| rng.uniform() - 0.5).collect(),
@@ -84,8 +90,9 @@ fn burn_loss(
     if track {
         (table, mlp) = (table.require_grad(), mlp.require_grad());
     }
-    let raw =
-        field(tensor(&c.pos, [s, 3], device), tensor(&c.dir, [s, 3], device), table.clone(), mlp.clone(), config());
+    let (pos, foot, dir) =
+        (tensor(&c.pos, [s, 3], device), tensor(&c.foot, [s], device), tensor(&c.dir, [s, 3], device));
+    let raw = field(pos, foot, dir, table.clone(), mlp.clone(), config());
     let out = composite(raw, c.samples.clone(), 0.0, 0.0);
     let w = tensor(&c.weights, [c.samples.rays(), 5], device);
     ((out * w).sum(), table, mlp)

@@ -158,11 +158,14 @@ impl FieldLayout {
     }
 
     /// Evaluates `σ, r, g, b` (`S×4`) at `positions` (`S×3`, in `[0,1]`) seen along unit
-    /// `directions` (`S×3`). With `saved` (`S×`[`Self::saved_per_sample`]) it keeps the
+    /// `directions` (`S×3`), each sample's pixel footprint of standard deviation
+    /// `footprints` (`S`, box units; see [`HashGridLayout::weigh_by_footprint`]). With `saved` (`S×`[`Self::saved_per_sample`]) it keeps the
     /// activations that [`Self::backward`] needs.
+    #[allow(clippy::too_many_arguments)]
     pub fn forward(
         &self,
         positions: &[f32],
+        footprints: &[f32],
         directions: &[f32],
         table: &[f32],
         mlp: &[f32],
@@ -170,7 +173,8 @@ impl FieldLayout {
         saved: Option<&mut [f32]>,
     ) {
         assert_eq!(positions.len(), directions.len(), "one direction per position");
-        self.forward_with(FieldInput::Positions { positions, table }, directions, mlp, out, saved);
+        assert_eq!(positions.len(), 3 * footprints.len(), "one footprint per position");
+        self.forward_with(FieldInput::Positions { positions, footprints, table }, directions, mlp, out, saved);
     }
 
     /// As [`Self::forward`], from the density's activations at the positions
@@ -209,9 +213,10 @@ impl FieldLayout {
                     let n = out.len() / 4;
                     let rows = c * CHUNK..c * CHUNK + n;
                     match input {
-                        FieldInput::Positions { positions, table } => {
+                        FieldInput::Positions { positions, footprints, table } => {
                             let pos = &positions[3 * rows.start..3 * rows.end];
                             self.grid.encode_chunk(pos, table, act, stride);
+                            self.grid.weigh_by_footprint(act, stride, &footprints[rows.clone()]);
                             self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, stride);
                         }
                         FieldInput::Density(density) => {
@@ -257,33 +262,49 @@ impl FieldLayout {
     }
 
     /// Density `σ` only (`S`), for the occupancy grid: no colour MLP.
-    pub fn density(&self, positions: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32]) {
+    pub fn density(&self, positions: &[f32], footprints: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32]) {
         assert_eq!(out.len(), positions.len() / 3, "one density per position");
+        assert_eq!(out.len(), footprints.len(), "one footprint per position");
         let width = self.density_width();
-        out.par_chunks_mut(CHUNK).zip(positions.par_chunks(CHUNK * 3)).for_each_init(
+        out.par_chunks_mut(CHUNK).zip(positions.par_chunks(CHUNK * 3).zip(footprints.par_chunks(CHUNK))).for_each_init(
             || vec![0.0; CHUNK * width],
-            |act, (out, pos)| self.density_chunk(pos, table, mlp, out, act),
+            |act, (out, (pos, foot))| self.density_chunk(pos, foot, table, mlp, out, act),
         );
     }
 
     /// Density `σ` (`S`) and the activations that gave it (`S×`[`Self::density_width`]), from
     /// which [`Self::forward_from_density`] goes on.
-    pub fn density_saving(&self, positions: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], saved: &mut [f32]) {
+    pub fn density_saving(
+        &self,
+        positions: &[f32],
+        footprints: &[f32],
+        table: &[f32],
+        mlp: &[f32],
+        out: &mut [f32],
+        saved: &mut [f32],
+    ) {
         let width = self.density_width();
         assert_eq!(out.len(), positions.len() / 3, "one density per position");
+        assert_eq!(out.len(), footprints.len(), "one footprint per position");
         assert_eq!(saved.len(), out.len() * width, "saved activations are S×{width}");
         out.par_chunks_mut(CHUNK)
-            .zip(positions.par_chunks(CHUNK * 3).zip(saved.par_chunks_mut(CHUNK * width)))
-            .for_each(|(out, (pos, act))| self.density_chunk(pos, table, mlp, out, act));
+            .zip(
+                positions
+                    .par_chunks(CHUNK * 3)
+                    .zip(footprints.par_chunks(CHUNK))
+                    .zip(saved.par_chunks_mut(CHUNK * width)),
+            )
+            .for_each(|(out, ((pos, foot), act))| self.density_chunk(pos, foot, table, mlp, out, act));
     }
 
     /// Encoding and density MLP of one chunk, in rows of [`Self::density_width`].
-    fn density_chunk(&self, pos: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], act: &mut [f32]) {
+    fn density_chunk(&self, pos: &[f32], foot: &[f32], table: &[f32], mlp: &[f32], out: &mut [f32], act: &mut [f32]) {
         wide(
             #[inline(always)]
             || {
                 let (n, width) = (out.len(), self.density_width());
                 self.grid.encode_chunk(pos, table, act, width);
+                self.grid.weigh_by_footprint(act, width, foot);
                 self.mlp_forward(&self.density, 0, &self.density_out, mlp, act, n, width);
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = act[i * width + self.colour_in].min(MAX_LOG_DENSITY).exp();
@@ -333,9 +354,11 @@ impl FieldLayout {
 
     /// Accumulates `∂loss/∂table` and `∂loss/∂mlp` (zeroed by the caller) from
     /// `∂loss/∂out` (`S×4`), using the activations saved by [`Self::forward`].
+    #[allow(clippy::too_many_arguments)]
     pub fn backward(
         &self,
         positions: &[f32],
+        footprints: &[f32],
         mlp: &[f32],
         saved: &[f32],
         grad_out: &[f32],
@@ -345,6 +368,7 @@ impl FieldLayout {
         let s = positions.len() / 3;
         let stride = self.stride;
         assert_eq!(saved.len(), s * stride, "saved activations do not match the positions");
+        assert_eq!(footprints.len(), s, "one footprint per position");
         assert_eq!(grad_out.len(), s * 4, "output gradient is S×4");
         assert_eq!(grad_mlp.len(), self.mlp_params(), "MLP gradient has the wrong size");
         // Samples past a ray's early termination (often half the batch) have an all-zero
@@ -352,15 +376,16 @@ impl FieldLayout {
         let active: Vec<usize> = (0..s).filter(|&i| grad_out[4 * i..4 * i + 4].iter().any(|&g| g != 0.0)).collect();
         tracing::trace!(samples = s, active = active.len(), "field backward");
         let compacted;
-        let (positions, saved, grad_out) = if active.len() == s {
-            (positions, saved, grad_out)
+        let (positions, footprints, saved, grad_out) = if active.len() == s {
+            (positions, footprints, saved, grad_out)
         } else {
             compacted = (
                 gather_rows(positions, 3, &active),
+                gather_rows(footprints, 1, &active),
                 gather_rows(saved, stride, &active),
                 gather_rows(grad_out, 4, &active),
             );
-            (&compacted.0[..], &compacted.1[..], &compacted.2[..])
+            (&compacted.0[..], &compacted.1[..], &compacted.2[..], &compacted.3[..])
         };
         let s = active.len();
         let enc = self.grid.output_dim();
@@ -389,6 +414,11 @@ impl FieldLayout {
         for gw in partials {
             grad_mlp.iter_mut().zip(&gw).for_each(|(d, g)| *d += g);
         }
+        // The features entered the MLP weighted: so does their gradient reach the table.
+        grad_enc
+            .par_chunks_mut(CHUNK * enc)
+            .zip(footprints.par_chunks(CHUNK))
+            .for_each(|(g, foot)| self.grid.weigh_by_footprint(g, enc, foot));
         self.grid.backward(positions, &grad_enc, grad_table);
     }
 
@@ -491,7 +521,7 @@ impl FieldLayout {
 /// Where the field's forward starts: positions (and the table), or the density's activations.
 #[derive(Clone, Copy)]
 enum FieldInput<'a> {
-    Positions { positions: &'a [f32], table: &'a [f32] },
+    Positions { positions: &'a [f32], footprints: &'a [f32], table: &'a [f32] },
     Density(&'a [f32]),
 }
 
@@ -524,6 +554,7 @@ pub(crate) mod tests {
                 log2_table_size: 6,
                 base_resolution: 2.0,
                 finest_resolution: 6.0,
+                antialias: 0.0,
             },
             hidden: 8,
             geometry_features: 4,
@@ -536,6 +567,7 @@ pub(crate) mod tests {
     struct Case {
         layout: FieldLayout,
         pos: Vec<f32>,
+        foot: Vec<f32>,
         dir: Vec<f32>,
         table: Vec<f32>,
         mlp: Vec<f32>,
@@ -547,9 +579,14 @@ pub(crate) mod tests {
     }
 
     fn case_of(seed: u64, s: usize) -> Case {
-        let layout = tiny_config().layout();
+        // Footprint weights on, with footprints from none to wider than the coarse cells, so
+        // that every test here also covers them.
+        let mut config = tiny_config();
+        config.grid.antialias = 1.0;
+        let layout = config.layout();
         let mut rng = Rng::new(seed, 0);
         let pos: Vec<f32> = (0..3 * s).map(|_| rng.uniform()).collect();
+        let foot: Vec<f32> = (0..s).map(|i| if i % 4 == 0 { 0.0 } else { 0.3 * rng.uniform() }).collect();
         let dir: Vec<f32> = (0..s)
             .flat_map(|_| {
                 let v = [rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5];
@@ -560,12 +597,12 @@ pub(crate) mod tests {
         let table = (0..layout.grid.entries * layout.grid.features).map(|_| 2.0 * rng.uniform() - 1.0).collect();
         let mlp = (0..layout.mlp_params()).map(|_| rng.uniform() - 0.5).collect();
         let weights = (0..4 * s).map(|_| rng.uniform() - 0.5).collect();
-        Case { layout, pos, dir, table, mlp, weights }
+        Case { layout, pos, foot, dir, table, mlp, weights }
     }
 
     fn loss(c: &Case, table: &[f32], mlp: &[f32]) -> f64 {
         let mut out = vec![0.0; c.weights.len()];
-        c.layout.forward(&c.pos, &c.dir, table, mlp, &mut out, None);
+        c.layout.forward(&c.pos, &c.foot, &c.dir, table, mlp, &mut out, None);
         out.iter().zip(&c.weights).map(|(a, b)| *a as f64 * *b as f64).sum()
     }
 
@@ -575,11 +612,11 @@ pub(crate) mod tests {
         let s = c.pos.len() / 3;
         let (mut a, mut b) = (vec![0.0; 4 * s], vec![0.0; 4 * s]);
         let mut saved = vec![0.0; s * c.layout.saved_per_sample()];
-        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut a, None);
-        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut b, Some(&mut saved));
+        c.layout.forward(&c.pos, &c.foot, &c.dir, &c.table, &c.mlp, &mut a, None);
+        c.layout.forward(&c.pos, &c.foot, &c.dir, &c.table, &c.mlp, &mut b, Some(&mut saved));
         assert_eq!(a, b);
         let mut sigma = vec![0.0; s];
-        c.layout.density(&c.pos, &c.table, &c.mlp, &mut sigma);
+        c.layout.density(&c.pos, &c.foot, &c.table, &c.mlp, &mut sigma);
         for i in 0..s {
             assert_eq!(sigma[i], a[4 * i]);
             assert!(a[4 * i] > 0.0 && (0.0..=1.0).contains(&a[4 * i + 1]));
@@ -596,10 +633,10 @@ pub(crate) mod tests {
         let stride = c.layout.saved_per_sample();
         let (mut a, mut b) = (vec![0.0; 4 * s], vec![0.0; 4 * s]);
         let (mut saved_a, mut saved_b) = (vec![0.0; s * stride], vec![0.0; s * stride]);
-        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut a, Some(&mut saved_a));
+        c.layout.forward(&c.pos, &c.foot, &c.dir, &c.table, &c.mlp, &mut a, Some(&mut saved_a));
         let mut sigma = vec![0.0; s];
         let mut density = vec![0.0; s * c.layout.density_width()];
-        c.layout.density_saving(&c.pos, &c.table, &c.mlp, &mut sigma, &mut density);
+        c.layout.density_saving(&c.pos, &c.foot, &c.table, &c.mlp, &mut sigma, &mut density);
         c.layout.forward_from_density(&density, &c.dir, &c.mlp, &mut b, Some(&mut saved_b));
         assert_eq!(a, b);
         assert_eq!(saved_a, saved_b);
@@ -616,17 +653,25 @@ pub(crate) mod tests {
         let stride = c.layout.saved_per_sample();
         let mut out = vec![0.0; 4 * s];
         let mut saved = vec![0.0; s * stride];
-        c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
+        c.layout.forward(&c.pos, &c.foot, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
         let keep: Vec<usize> = (0..s).filter(|i| i % 3 != 1).collect();
         let mut grad = c.weights.clone();
         for i in (0..s).filter(|i| i % 3 == 1) {
             grad[4 * i..4 * i + 4].fill(0.0);
         }
         let (mut gt, mut gm) = (vec![0.0; c.table.len()], vec![0.0; c.mlp.len()]);
-        c.layout.backward(&c.pos, &c.mlp, &saved, &grad, &mut gt, &mut gm);
+        c.layout.backward(&c.pos, &c.foot, &c.mlp, &saved, &grad, &mut gt, &mut gm);
         let sub = |v: &[f32], w: usize| gather_rows(v, w, &keep);
         let (mut rt, mut rm) = (vec![0.0; c.table.len()], vec![0.0; c.mlp.len()]);
-        c.layout.backward(&sub(&c.pos, 3), &c.mlp, &sub(&saved, stride), &sub(&grad, 4), &mut rt, &mut rm);
+        c.layout.backward(
+            &sub(&c.pos, 3),
+            &sub(&c.foot, 1),
+            &c.mlp,
+            &sub(&saved, stride),
+            &sub(&grad, 4),
+            &mut rt,
+            &mut rm,
+        );
         assert_eq!(gt, rt);
         assert_eq!(gm, rm);
     }
@@ -638,10 +683,10 @@ pub(crate) mod tests {
             let s = c.pos.len() / 3;
             let mut out = vec![0.0; 4 * s];
             let mut saved = vec![0.0; s * c.layout.saved_per_sample()];
-            c.layout.forward(&c.pos, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
+            c.layout.forward(&c.pos, &c.foot, &c.dir, &c.table, &c.mlp, &mut out, Some(&mut saved));
             let mut gt = vec![0.0; c.table.len()];
             let mut gm = vec![0.0; c.mlp.len()];
-            c.layout.backward(&c.pos, &c.mlp, &saved, &c.weights, &mut gt, &mut gm);
+            c.layout.backward(&c.pos, &c.foot, &c.mlp, &saved, &c.weights, &mut gt, &mut gm);
             let eps = 1e-3f32;
             let base = loss(&c, &c.table, &c.mlp);
             let mut kinks = 0;

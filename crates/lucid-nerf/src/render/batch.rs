@@ -14,6 +14,8 @@ pub struct SampleBatch {
     pub samples: PackedSamples,
     /// Sample positions in `[0,1]³` of the scene box (`S×3`).
     pub positions: Vec<f32>,
+    /// Each sample's pixel footprint (standard deviation) in box units (`S`).
+    pub footprints: Vec<f32>,
     /// Unit ray direction of each sample (`S×3`).
     pub directions: Vec<f32>,
     /// Where [`march_to_termination`] evaluated each sample's density: its index among all the
@@ -32,6 +34,7 @@ struct RayTrack {
     t: Vec<f32>,
     dt: Vec<f32>,
     positions: Vec<f32>,
+    footprints: Vec<f32>,
     evaluated: Vec<u32>,
     ray: RayAccumulator,
 }
@@ -39,7 +42,7 @@ struct RayTrack {
 /// Marches `rays` (`(origin, unit direction)`, jittered by `jitter(i)`, with samples over
 /// empty space where `sample_empty(i)`, see [`super::march::MarchState`]) in rounds, and cuts
 /// each after the sample where its transmittance, from `density` (positions `S×3` in the box
-/// → `σ` per sample), falls below `min_transmittance`: compositing gives the samples behind
+/// and their footprints `S` → `σ` per sample), falls below `min_transmittance`: compositing gives the samples behind
 /// it no weight and no gradient, yet the field would be evaluated and differentiated on them
 /// (over half of a trophy batch once the surfaces are learned). Keeps whole rays, first to
 /// last, while their samples fit `budget`; a ray that can no longer fit is not marched on.
@@ -52,7 +55,7 @@ pub fn march_to_termination(
     sample_empty: impl Fn(usize) -> bool,
     marcher: &RayMarcher,
     grid: &OccupancyGrid,
-    mut density: impl FnMut(&[f32]) -> Vec<f32>,
+    mut density: impl FnMut(&[f32], &[f32]) -> Vec<f32>,
     min_transmittance: f32,
     budget: usize,
 ) -> (SampleBatch, usize) {
@@ -72,8 +75,8 @@ pub fn march_to_termination(
     while !live.is_empty() {
         let per_ray = samples_per_ray(ROUND_SAMPLES, live.len());
         let round = march_round(rays, &mut live, per_ray, marcher, grid);
-        let positions = round.positions();
-        let sigma = if round.samples == 0 { Vec::new() } else { density(&positions) };
+        let (positions, footprints) = (round.positions(), round.footprints());
+        let sigma = if round.samples == 0 { Vec::new() } else { density(&positions, &footprints) };
         assert_eq!(sigma.len(), round.samples, "one density per sample");
         let mut going = vec![false; live.len()];
         round.for_each_ray(|rank, t, dt, at, more| {
@@ -90,6 +93,7 @@ pub fn march_to_termination(
             track.t.extend_from_slice(&t[..stop]);
             track.dt.extend_from_slice(&dt[..stop]);
             track.positions.extend_from_slice(&positions[3 * at..3 * (at + stop)]);
+            track.footprints.extend_from_slice(&footprints[at..at + stop]);
             track.evaluated.extend((evaluated + at..evaluated + at + stop).map(|i| i as u32));
         });
         evaluated += round.samples;
@@ -113,6 +117,7 @@ pub fn march_to_termination(
         batch.samples.t.extend_from_slice(&track.t);
         batch.samples.dt.extend_from_slice(&track.dt);
         batch.positions.extend_from_slice(&track.positions);
+        batch.footprints.extend_from_slice(&track.footprints);
         batch.evaluated.extend_from_slice(&track.evaluated);
         for _ in &track.t {
             batch.directions.extend(d.to_array());
@@ -189,10 +194,11 @@ mod tests {
         rays: &[(Vec3, Vec3)],
         grid: &OccupancyGrid,
         marcher: &RayMarcher,
-        density: impl FnMut(&[f32]) -> Vec<f32>,
+        mut density: impl FnMut(&[f32]) -> Vec<f32>,
         min_t: f32,
         budget: usize,
     ) -> (SampleBatch, usize) {
+        let density = |p: &[f32], _: &[f32]| density(p);
         march_to_termination(rays, |i| 0.1 * (i % 10) as f32, |i| i % 3 == 0, marcher, grid, density, min_t, budget)
     }
 
@@ -224,6 +230,13 @@ mod tests {
             cut_short += (full.0.len() > want.len()) as usize;
         }
         assert!(cut_short > 100, "the shell stops many rays ({cut_short} of 300)");
+        // Each sample's footprint: its distance times the pixel angle (0.002) over √12, in
+        // units of the box (side 2).
+        let per_distance = 0.002 / 12f32.sqrt() / 2.0;
+        assert_eq!(batch.footprints.len(), batch.samples.samples());
+        for (&f, &t) in batch.footprints.iter().zip(&batch.samples.t) {
+            assert!((f - t * per_distance).abs() <= 1e-6 * t, "footprint {f} at t = {t}");
+        }
         // The samples cut away had no weight: compositing the cut rays gives the whole rays'
         // colour, opacity and depth.
         let raw = |positions: &[f32]| -> Vec<f32> {

@@ -116,6 +116,9 @@ pub struct RayMarcher {
     far_step: f32,
     /// Length of empty space one empty-space sample stands for (at least).
     empty_span: f32,
+    /// Standard deviation of a ray's pixel footprint per unit distance: a pixel's angle over
+    /// √12 (a box filter's), over √n for rays that each cover `1/n` of a pixel.
+    footprint_angle: f32,
 }
 
 impl RayMarcher {
@@ -134,7 +137,30 @@ impl RayMarcher {
             // Half a cell of the grid over the contracted ball's cube (side 4r).
             far_step: 0.5 * 4.0 * radius / resolution.max(1) as f32,
             empty_span: EMPTY_SPAN * diagonal,
+            footprint_angle: pixel_angle / 12f32.sqrt(),
         }
+    }
+
+    /// This marcher for rays that each cover `1/rays` of a pixel (a grid of rays per pixel):
+    /// their footprints are `√rays` times narrower.
+    pub fn with_rays_per_pixel(mut self, rays: usize) -> Self {
+        self.footprint_angle /= (rays.max(1) as f32).sqrt();
+        self
+    }
+
+    /// Standard deviation, in the field's space, of the pixel footprint of a ray that reaches
+    /// world point `p` at distance `t`: `t` times the footprint angle, shrunk beyond the
+    /// contraction radius as the contraction shrinks lengths across the ray there
+    /// (`(2 − r/|x|)·r/|x|`, the tangential scale of `x ↦ (2 − r/|x|)·r·x/|x|`).
+    #[inline]
+    pub fn footprint(&self, t: f32, p: Vec3) -> f32 {
+        let sigma = t * self.footprint_angle;
+        let r = self.radius;
+        if r <= 0.0 {
+            return sigma;
+        }
+        let len = p.length();
+        if len <= r { sigma } else { sigma * (2.0 - r / len) * r / len }
     }
 
     /// Whether space beyond a ball is contracted.

@@ -28,6 +28,8 @@ pub struct RoundPart {
     pub dt: Vec<f32>,
     /// Each sample's position in `[0,1]³` of the grid's box (`×3`).
     pub positions: Vec<f32>,
+    /// Each sample's pixel footprint (standard deviation) in the box's units.
+    pub footprints: Vec<f32>,
 }
 
 /// A round's samples, task after task (ray order is `live`'s).
@@ -44,6 +46,15 @@ impl Round {
         let mut out = Vec::with_capacity(3 * self.samples);
         for p in &self.parts {
             out.extend_from_slice(&p.positions);
+        }
+        out
+    }
+
+    /// All footprints, packed (`samples`).
+    pub fn footprints(&self) -> Vec<f32> {
+        let mut out = Vec::with_capacity(self.samples);
+        for p in &self.parts {
+            out.extend_from_slice(&p.footprints);
         }
         out
     }
@@ -92,6 +103,9 @@ pub fn march_round(
 ) -> Round {
     let (lo, hi) = grid.bounds();
     let inv_size = (hi - lo).recip();
+    // Footprints in box units: a box that is not a cube has cells of different widths per
+    // axis, and its mean inverse side stands for all three.
+    let box_scale = (inv_size.x + inv_size.y + inv_size.z) / 3.0;
     let parts: Vec<RoundPart> = live
         .par_chunks_mut(MARCH_CHUNK)
         .map(|chunk| {
@@ -104,7 +118,9 @@ pub fn march_round(
                         let before = part.t.len();
                         let more = marcher.advance(o, d, grid, state, per_ray, &mut part.t, &mut part.dt);
                         for &ts in &part.t[before..] {
-                            part.positions.extend(box_position(marcher.to_model(o + ts * d), lo, inv_size).to_array());
+                            let p = o + ts * d;
+                            part.positions.extend(box_position(marcher.to_model(p), lo, inv_size).to_array());
+                            part.footprints.push(marcher.footprint(ts, p) * box_scale);
                         }
                         part.counts.push((part.t.len() - before) as u32);
                         part.more.push(more);

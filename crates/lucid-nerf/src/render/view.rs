@@ -147,9 +147,14 @@ impl ViewRenderer<'_> {
             }
             total += s;
             let pos = Tensor::<2>::from_data(TensorData::new(round.positions(), [s, 3]), &self.device);
+            let foot = Tensor::<1>::from_data(TensorData::new(round.footprints(), [s]), &self.device);
             let dir = Tensor::<2>::from_data(TensorData::new(round.directions(rays, &live), [s, 3]), &self.device);
-            let raw =
-                self.model.field(pos, dir, self.config).into_data().try_into_vec::<f32>().expect("f32 field output");
+            let raw = self
+                .model
+                .field(pos, foot, dir, self.config)
+                .into_data()
+                .try_into_vec::<f32>()
+                .expect("f32 field output");
             // Composite each ray's new samples in order; keep the rays that go on.
             let mut going = vec![false; live.len()];
             round.for_each_ray(|rank, t, dt, at, more| {
@@ -180,7 +185,9 @@ mod tests {
     /// A model of random weights, occupied in a ball (so rays start, jump and end at
     /// different places), and its marcher.
     fn random_scene() -> (NerfModel, OccupancyGrid, RayMarcher, FieldConfig) {
-        let config = tiny_config();
+        // Footprint weights strong enough that this coarse grid's levels feel them.
+        let mut config = tiny_config();
+        config.grid.antialias = 30.0;
         let layout = config.layout();
         let device = crate::backend::training_device();
         let mut rng = Rng::new(3, 0);
@@ -273,11 +280,12 @@ mod tests {
             .collect();
         let (rounds, _) = renderer.render_rays(&rays);
         let mut whole = PackedSamples { offsets: vec![0], ..Default::default() };
-        let (mut pos, mut dir) = (Vec::new(), Vec::new());
+        let (mut pos, mut foot, mut dir) = (Vec::new(), Vec::new(), Vec::new());
         for &(o, d) in &rays {
             marcher.march(o, d, grid, 0.5, false, &mut whole.t, &mut whole.dt);
             for &t in &whole.t[*whole.offsets.last().unwrap() as usize..] {
                 pos.extend(((o + t * d - Vec3::splat(-1.0)) * 0.5).to_array());
+                foot.push(marcher.footprint(t, o + t * d) * 0.5);
                 dir.extend(d.to_array());
             }
             whole.offsets.push(whole.t.len() as u32);
@@ -286,6 +294,7 @@ mod tests {
         let raw = model
             .field(
                 Tensor::from_data(TensorData::new(pos, [s, 3]), &device),
+                Tensor::from_data(TensorData::new(foot, [s]), &device),
                 Tensor::from_data(TensorData::new(dir, [s, 3]), &device),
                 config,
             )
