@@ -563,7 +563,7 @@ impl NerfTrainer {
             model,
             config: self.config.field,
             grid: &self.grid,
-            marcher: self.marcher().with_rays_per_pixel(self.config.train.eval_pixel_rays),
+            marcher: self.marcher(),
             min_transmittance: self.config.train.min_transmittance,
             background,
             device: crate::backend::default_device(),

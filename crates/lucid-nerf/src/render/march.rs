@@ -141,6 +141,14 @@ impl RayMarcher {
         }
     }
 
+    /// This marcher for the rays of cameras whose pixels span `pixel_angle` radians (a view
+    /// rendered at another resolution than the training views'): the footprints follow the
+    /// pixels; the steps stay the training views' (the model learnt its densities with them).
+    pub fn with_pixel_angle(mut self, pixel_angle: f32) -> Self {
+        self.footprint_angle = pixel_angle / 12f32.sqrt();
+        self
+    }
+
     /// This marcher for rays that each cover `1/rays` of a pixel (a grid of rays per pixel):
     /// their footprints are `√rays` times narrower.
     pub fn with_rays_per_pixel(mut self, rays: usize) -> Self {

@@ -83,6 +83,8 @@ impl ViewRenderer<'_> {
         let thin = lens.map(|(a, f)| ThinLensCamera::new(*camera, a, f));
         let lens_rays = if thin.is_some() { rays.max(1) } else { 1 };
         let per_pixel = lens_rays.max(self.pixel_rays);
+        // Each ray's footprint is this camera's pixel (or its share of it).
+        let marcher = self.marcher.with_pixel_angle(1.0 / camera.intrinsics.fx).with_rays_per_pixel(self.pixel_rays);
         let mut acc = vec![[0f32; RAY_OUTPUTS]; n];
         let mut samples = 0;
         for k in 0..per_pixel {
@@ -100,7 +102,7 @@ impl ViewRenderer<'_> {
                 })
                 .collect();
             for (b, block) in rays.chunks(BLOCK_RAYS).enumerate() {
-                let out = self.render_rays(block);
+                let out = self.render_rays_with(block, &marcher);
                 samples += out.1;
                 for (i, o) in out.0.chunks_exact(RAY_OUTPUTS).enumerate() {
                     let a = &mut acc[b * BLOCK_RAYS + i];
@@ -130,16 +132,21 @@ impl ViewRenderer<'_> {
     /// the density first and the colour only where a sample reaches the image took 1.5× the
     /// time: the second pass's gathers cost more than the colour MLP it saved.)
     pub fn render_rays(&self, rays: &[(Vec3, Vec3)]) -> (Vec<f32>, usize) {
+        self.render_rays_with(rays, &self.marcher)
+    }
+
+    /// [`Self::render_rays`] with another marcher (the same scene, another footprint).
+    fn render_rays_with(&self, rays: &[(Vec3, Vec3)], marcher: &RayMarcher) -> (Vec<f32>, usize) {
         let mut accs = vec![RayAccumulator::default(); rays.len()];
         let mut live: Vec<(usize, MarchState)> = rays
             .iter()
             .enumerate()
-            .filter_map(|(i, &(o, d))| self.marcher.start(o, d, self.grid, 0.5).map(|m| (i, m)))
+            .filter_map(|(i, &(o, d))| marcher.start(o, d, self.grid, 0.5).map(|m| (i, m)))
             .collect();
         let mut total = 0;
         while !live.is_empty() {
             let per_ray = samples_per_ray(ROUND_SAMPLES, live.len());
-            let round = march_round(rays, &mut live, per_ray, &self.marcher, self.grid);
+            let round = march_round(rays, &mut live, per_ray, marcher, self.grid);
             let s = round.samples;
             if s == 0 {
                 // No ray reached its round's limit: all are done.
@@ -233,8 +240,11 @@ mod tests {
         let camera = PinholeCamera::new(lucid_scene::camera::Intrinsics::from_fov_x(24, 16, 0.9), pose);
         let view = renderer(&scene, 4).render(&camera);
         let single = renderer(&scene, 1);
+        // Each of the four rays covers a quarter of its pixel: half the footprint's width.
+        let quarter = scene.2.with_pixel_angle(1.0 / camera.intrinsics.fx).with_rays_per_pixel(4);
         let (w, h) = (24, 16);
         let mut mean = vec![[0f32; RAY_OUTPUTS]; w * h];
+        let mut footprint_matters = false;
         for (dx, dy) in [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)] {
             let rays: Vec<(Vec3, Vec3)> = (0..w * h)
                 .map(|i| {
@@ -242,12 +252,16 @@ mod tests {
                     (ray.origin, ray.direction)
                 })
                 .collect();
-            for (m, o) in mean.iter_mut().zip(single.render_rays(&rays).0.chunks_exact(RAY_OUTPUTS)) {
+            let whole_pixel = single.render_rays_with(&rays, &scene.2.with_pixel_angle(1.0 / camera.intrinsics.fx)).0;
+            let sub_pixel = single.render_rays_with(&rays, &quarter).0;
+            footprint_matters |= whole_pixel.iter().zip(&sub_pixel).any(|(a, b)| (a - b).abs() > 1e-3);
+            for (m, o) in mean.iter_mut().zip(sub_pixel.chunks_exact(RAY_OUTPUTS)) {
                 for c in 0..RAY_OUTPUTS {
                     m[c] += 0.25 * o[c];
                 }
             }
         }
+        assert!(footprint_matters, "the scene's footprint weights change what a ray sees");
         let mut differs_from_centre = 0;
         let centre = single.render(&camera);
         for (i, m) in mean.iter().enumerate() {
