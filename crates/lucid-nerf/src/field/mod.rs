@@ -159,8 +159,9 @@ impl FieldLayout {
 
     /// Evaluates `σ, r, g, b` (`S×4`) at `positions` (`S×3`, in `[0,1]`) seen along unit
     /// `directions` (`S×3`), each sample's pixel footprint of standard deviation
-    /// `footprints` (`S`, box units; see [`HashGridLayout::weigh_by_footprint`]). With `saved` (`S×`[`Self::saved_per_sample`]) it keeps the
-    /// activations that [`Self::backward`] needs.
+    /// `footprints` (`S`, box units; see [`HashGridLayout::weigh_by_footprint`]). With
+    /// `saved` (`S×`[`Self::saved_per_sample`]) it keeps the activations that
+    /// [`Self::backward`] needs.
     #[allow(clippy::too_many_arguments)]
     pub fn forward(
         &self,

@@ -42,12 +42,12 @@ struct RayTrack {
 /// Marches `rays` (`(origin, unit direction)`, jittered by `jitter(i)`, with samples over
 /// empty space where `sample_empty(i)`, see [`super::march::MarchState`]) in rounds, and cuts
 /// each after the sample where its transmittance, from `density` (positions `S×3` in the box
-/// and their footprints `S` → `σ` per sample), falls below `min_transmittance`: compositing gives the samples behind
-/// it no weight and no gradient, yet the field would be evaluated and differentiated on them
-/// (over half of a trophy batch once the surfaces are learned). Keeps whole rays, first to
-/// last, while their samples fit `budget`; a ray that can no longer fit is not marched on.
-/// Returns the batch and the number of rays kept; the batch says where each of its samples
-/// was evaluated, so that whatever `density` computed on the way can be reused.
+/// and their footprints `S` → `σ` per sample), falls below `min_transmittance`: compositing
+/// gives the samples behind it no weight and no gradient, yet the field would be evaluated and
+/// differentiated on them (over half of a trophy batch once the surfaces are learned). Keeps
+/// whole rays, first to last, while their samples fit `budget`; a ray that can no longer fit
+/// is not marched on. Returns the batch and the number of rays kept; the batch says where each
+/// of its samples was evaluated, so that whatever `density` computed on the way can be reused.
 #[allow(clippy::too_many_arguments)]
 pub fn march_to_termination(
     rays: &[(Vec3, Vec3)],

@@ -137,8 +137,9 @@ impl RayMarcher {
             // Half a cell of the grid over the contracted ball's cube (side 4r).
             far_step: 0.5 * 4.0 * radius / resolution.max(1) as f32,
             empty_span: EMPTY_SPAN * diagonal,
-            footprint_angle: pixel_angle / 12f32.sqrt(),
+            footprint_angle: 0.0,
         }
+        .with_pixel_angle(pixel_angle)
     }
 
     /// This marcher for the rays of cameras whose pixels span `pixel_angle` radians (a view
