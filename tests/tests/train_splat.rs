@@ -74,6 +74,8 @@ fn splat_training_beats_the_floor_is_reproducible_resumes_and_exports() {
     assert_eq!(again["summary"]["psnr"], m["summary"]["psnr"]);
     lucid_in(d, &["eval", "a/checkpoint.lucid", "ds", "-o", "e4", "--pixel-rays", "4"])
         .failure(&["--pixel-rays", "NeRF"]);
+    lucid_in(d, &["eval", "a/checkpoint.lucid", "ds", "-o", "es", "--step-scale", "0.5"])
+        .failure(&["--step-scale", "NeRF"]);
     lucid_in(d, &["render", "a/checkpoint.lucid", "-o", "orbit", "--frames", "2", "--width", "24", "--height", "16"])
         .success();
     assert!(d.join("orbit/frame_0001.png").is_file() && d.join("orbit/frame_0001_depth.exr").is_file());

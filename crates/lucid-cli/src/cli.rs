@@ -399,6 +399,11 @@ pub struct EvalArgs {
     /// the run's `train.eval_pixel_rays`).
     #[arg(long)]
     pub pixel_rays: Option<usize>,
+    /// NeRF checkpoints: march the rays at this fraction of the training steps, in (0, 1]
+    /// (default: the run's `march.render_step_scale`; finer is closer to what the model
+    /// learnt and slower).
+    #[arg(long)]
+    pub step_scale: Option<f32>,
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -734,6 +739,11 @@ pub struct RenderArgs {
     /// the run's `train.eval_pixel_rays`).
     #[arg(long)]
     pub pixel_rays: Option<usize>,
+    /// NeRF checkpoints: march the rays at this fraction of the training steps, in (0, 1]
+    /// (default: the run's `march.render_step_scale`; finer is closer to what the model
+    /// learnt and slower).
+    #[arg(long)]
+    pub step_scale: Option<f32>,
 }
 
 /// Camera paths for rendering trained models.

@@ -62,6 +62,24 @@ impl LoadedModel {
         }
     }
 
+    /// Marches a NeRF's views at `scale` times its training steps (`None`: the run's own
+    /// `march.render_step_scale`); an error for other models or a scale outside (0, 1],
+    /// naming `flag`.
+    pub fn set_step_scale(&mut self, scale: Option<f32>, flag: &str) -> anyhow::Result<()> {
+        let Some(scale) = scale else { return Ok(()) };
+        match self {
+            Self::Nerf(t) => {
+                anyhow::ensure!(
+                    scale.is_finite() && scale > 0.0 && scale <= 1.0,
+                    "{flag} must be in (0, 1], got {scale}"
+                );
+                t.config.march.render_step_scale = scale;
+                Ok(())
+            }
+            Self::Splat(_) => bail!("{flag} applies to NeRF checkpoints; this one holds splats"),
+        }
+    }
+
     /// The model, borrowed.
     pub fn model(&self) -> ModelRef<'_> {
         match self {

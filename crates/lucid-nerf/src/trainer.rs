@@ -563,7 +563,7 @@ impl NerfTrainer {
             model,
             config: self.config.field,
             grid: &self.grid,
-            marcher: self.marcher(),
+            marcher: self.marcher().with_step_scale(self.config.march.render_step_scale),
             min_transmittance: self.config.train.min_transmittance,
             background,
             device: crate::backend::default_device(),
@@ -675,5 +675,22 @@ mod tests {
         // Beyond the budget (a resumed run) the schedule holds its end.
         trainer.progress = 1.5;
         assert_eq!(trainer.batch_samples(), 1 << 16);
+    }
+
+    /// Views are marched at `march.render_step_scale` of the training steps, everywhere along
+    /// the ray (the clamps and the cone); training keeps its own.
+    #[test]
+    fn views_are_marched_at_the_render_step_scale() {
+        let mut config = NerfConfig::default();
+        config.occupancy.resolution = 8;
+        config.march.render_step_scale = 0.25;
+        let device = crate::backend::training_device();
+        let trainer = NerfTrainer::new(config, (Vec3::splat(-1.0), Vec3::ONE), 1e-3, device);
+        let model = trainer.eval_model();
+        let renderer = trainer.renderer(&model);
+        for t in [0.01, 1.0, 3.0, 50.0] {
+            let (train, view) = (trainer.marcher().step(t), renderer.marcher.step(t));
+            assert!((view - 0.25 * train).abs() <= 1e-6 * train, "t {t}: {view} against {train}");
+        }
     }
 }
