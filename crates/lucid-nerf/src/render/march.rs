@@ -161,12 +161,14 @@ impl RayMarcher {
     }
 
     /// This marcher with every step length `scale` times as long (the rendering marcher:
-    /// [`MarchSettings::render_step_scale`]); the footprints stay.
+    /// [`MarchSettings::render_step_scale`]) and `1/scale` times the samples a ray may take,
+    /// so that a ray reaches as far; the footprints stay.
     pub fn with_step_scale(mut self, scale: f32) -> Self {
         self.min_step *= scale;
         self.max_step *= scale;
         self.cone_angle *= scale;
         self.far_step *= scale;
+        self.max_samples = (self.max_samples as f32 / scale).ceil() as usize;
         self
     }
 
@@ -550,5 +552,17 @@ mod tests {
         let uniform = coarse_step as f64 / 12f64.sqrt();
         assert!((coarse / uniform - 1.0).abs() < 0.1, "coarse {coarse} against {uniform}");
         assert!((fine / coarse - 0.5).abs() < 0.05, "fine {fine} against coarse {coarse}");
+
+        // A ray capped by the samples it may take reaches as far with the finer steps.
+        let capped =
+            RayMarcher::new(&MarchSettings { max_samples: 16, ..Default::default() }, 2.0 * 3f32.sqrt(), 0.01, 8);
+        let reach = |marcher: &RayMarcher| {
+            let (mut t, mut dt) = (Vec::new(), Vec::new());
+            marcher.march(Vec3::new(0.01, 0.02, 5.0), -Vec3::Z, &grid, 0.5, false, &mut t, &mut dt);
+            (t.len(), t.last().copied().unwrap_or(0.0) + dt.last().copied().unwrap_or(0.0))
+        };
+        let ((n1, far1), (n2, far2)) = (reach(&capped), reach(&capped.with_step_scale(0.5)));
+        assert_eq!((n1, n2), (16, 32));
+        assert!((far2 - far1).abs() < 0.02 * far1, "{far2} against {far1}");
     }
 }
