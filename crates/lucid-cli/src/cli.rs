@@ -395,15 +395,9 @@ pub struct EvalArgs {
     /// (`aperture_radius`, `focus_distance`) for it.
     #[arg(long)]
     pub pinhole: bool,
-    /// NeRF checkpoints: rays per pixel, on a regular grid over its area, averaged (default:
-    /// the run's `train.eval_pixel_rays`).
-    #[arg(long)]
-    pub pixel_rays: Option<usize>,
-    /// NeRF checkpoints: march the rays at this fraction of the training steps, in (0, 1]
-    /// (default: the run's `march.render_step_scale`; finer is closer to what the model
-    /// learnt and slower).
-    #[arg(long)]
-    pub step_scale: Option<f32>,
+    /// How a NeRF checkpoint's rays are cast.
+    #[command(flatten)]
+    pub nerf: NerfViewArgs,
     /// Print the results as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -735,6 +729,14 @@ pub struct RenderArgs {
     /// Checkpoints: rays per pixel over the lens.
     #[arg(long, default_value_t = 32)]
     pub lens_rays: usize,
+    /// How a NeRF checkpoint's rays are cast.
+    #[command(flatten)]
+    pub nerf: NerfViewArgs,
+}
+
+/// How `lucid eval` and `lucid render` cast a NeRF's rays (an error for splat checkpoints).
+#[derive(Args, Clone, Debug, Default)]
+pub struct NerfViewArgs {
     /// NeRF checkpoints: rays per pixel, on a regular grid over its area, averaged (default:
     /// the run's `train.eval_pixel_rays`).
     #[arg(long)]

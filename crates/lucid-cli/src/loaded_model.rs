@@ -4,8 +4,10 @@
 
 use std::path::Path;
 
+use crate::cli::NerfViewArgs;
 use anyhow::bail;
 use glam::Vec3;
+use lucid_nerf::render::march::MarchSettings;
 use lucid_nerf::trainer::NerfTrainer;
 use lucid_scene::dataset::images::ViewInfo;
 use lucid_scene::evaluation::ViewModel;
@@ -45,39 +47,27 @@ impl LoadedModel {
         })
     }
 
-    /// Renders a NeRF with `rays` rays per pixel over its area (`None`: the run's own
-    /// setting); an error for other models or a count out of range, naming `flag`.
-    pub fn set_pixel_rays(&mut self, rays: Option<usize>, flag: &str) -> anyhow::Result<()> {
-        let Some(rays) = rays else { return Ok(()) };
-        match self {
-            Self::Nerf(t) => {
-                let max = lucid_nerf::config::MAX_PIXEL_RAYS;
-                anyhow::ensure!((1..=max).contains(&rays), "{flag} must be in 1..={max}, got {rays}");
-                t.config.train.eval_pixel_rays = rays;
-                Ok(())
-            }
-            // Splats are drawn by area already: each Gaussian is integrated over the pixel's
-            // low-pass footprint.
-            Self::Splat(_) => bail!("{flag} applies to NeRF checkpoints; this one holds splats"),
+    /// Casts a NeRF's rays as `args` say (what they leave out stays the run's own); an error
+    /// naming the flag for splat checkpoints and for values out of range.
+    pub fn set_nerf_view(&mut self, args: &NerfViewArgs) -> anyhow::Result<()> {
+        let flag = match (args.pixel_rays, args.step_scale) {
+            (None, None) => return Ok(()),
+            (Some(_), _) => "--pixel-rays",
+            (None, Some(_)) => "--step-scale",
+        };
+        // Splats are drawn by area already (each Gaussian is integrated over the pixel's
+        // low-pass footprint) and have no steps.
+        let Self::Nerf(t) = self else { bail!("{flag} applies to NeRF checkpoints; this one holds splats") };
+        if let Some(rays) = args.pixel_rays {
+            let max = lucid_nerf::config::MAX_PIXEL_RAYS;
+            anyhow::ensure!((1..=max).contains(&rays), "--pixel-rays must be in 1..={max}, got {rays}");
+            t.config.train.eval_pixel_rays = rays;
         }
-    }
-
-    /// Marches a NeRF's views at `scale` times its training steps (`None`: the run's own
-    /// `march.render_step_scale`); an error for other models or a scale outside (0, 1],
-    /// naming `flag`.
-    pub fn set_step_scale(&mut self, scale: Option<f32>, flag: &str) -> anyhow::Result<()> {
-        let Some(scale) = scale else { return Ok(()) };
-        match self {
-            Self::Nerf(t) => {
-                anyhow::ensure!(
-                    scale.is_finite() && scale > 0.0 && scale <= 1.0,
-                    "{flag} must be in (0, 1], got {scale}"
-                );
-                t.config.march.render_step_scale = scale;
-                Ok(())
-            }
-            Self::Splat(_) => bail!("{flag} applies to NeRF checkpoints; this one holds splats"),
+        if let Some(scale) = args.step_scale {
+            anyhow::ensure!(MarchSettings::is_render_step_scale(scale), "--step-scale must be in (0, 1], got {scale}");
+            t.config.march.render_step_scale = scale;
         }
+        Ok(())
     }
 
     /// The model, borrowed.

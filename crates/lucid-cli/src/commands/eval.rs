@@ -31,8 +31,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         _ => {}
     }
     let mut loaded = LoadedModel::load(&args.checkpoint)?;
-    loaded.set_pixel_rays(args.pixel_rays, "--pixel-rays")?;
-    loaded.set_step_scale(args.step_scale, "--step-scale")?;
+    loaded.set_nerf_view(&args.nerf)?;
     let dataset = Dataset::open_with(&args.dataset, &args.data.options())
         .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if dataset.frames(split).is_empty() {

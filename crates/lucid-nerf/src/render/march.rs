@@ -83,6 +83,11 @@ const EMPTY_SPAN: f32 = 0.125;
 const FAR: f32 = 1e4;
 
 impl MarchSettings {
+    /// Whether `scale` is a valid [`Self::render_step_scale`]: in (0, 1].
+    pub fn is_render_step_scale(scale: f32) -> bool {
+        scale.is_finite() && scale > 0.0 && scale <= 1.0
+    }
+
     /// Checks the values; the message names the wrong one.
     pub fn validate(&self) -> Result<(), String> {
         let positive = |name: &str, v: f32| {
@@ -99,7 +104,7 @@ impl MarchSettings {
         if !(1..=16384).contains(&self.max_samples) {
             return Err(format!("max_samples must be in 1..=16384, got {}", self.max_samples));
         }
-        if !(self.render_step_scale.is_finite() && self.render_step_scale > 0.0 && self.render_step_scale <= 1.0) {
+        if !Self::is_render_step_scale(self.render_step_scale) {
             return Err(format!("render_step_scale must be in (0, 1], got {}", self.render_step_scale));
         }
         if !(self.near.is_finite() && self.near >= 0.0) {
@@ -520,6 +525,12 @@ mod tests {
     #[test]
     fn finer_render_steps_shrink_the_quadrature_error_of_a_surface() {
         let grid = grid_occupied_where(8, |_| true);
+        // One ray straight down the box's axis, at the rendering shift.
+        let march = |marcher: &RayMarcher| {
+            let (mut t, mut dt) = (Vec::new(), Vec::new());
+            marcher.march(Vec3::new(0.01, 0.02, 5.0), -Vec3::Z, &grid, 0.5, false, &mut t, &mut dt);
+            (t, dt)
+        };
         let base = RayMarcher::new(&MarchSettings::default(), 2.0 * 3f32.sqrt(), 0.01, 8);
         let density = 2000.0;
         let spread = |marcher: &RayMarcher| -> (f64, f32) {
@@ -528,8 +539,7 @@ mod tests {
                 .map(|_| {
                     // A surface across the ray at a random depth in [4.2, 5), dense behind it.
                     let surface = 4.2 + 0.8 * rng.uniform();
-                    let (mut t, mut dt) = (Vec::new(), Vec::new());
-                    marcher.march(Vec3::new(0.01, 0.02, 5.0), -Vec3::Z, &grid, 0.5, false, &mut t, &mut dt);
+                    let (t, dt) = march(marcher);
                     let (mut transmittance, mut depth) = (1.0f64, 0.0f64);
                     for (&ti, &di) in t.iter().zip(&dt) {
                         let sigma = if ti >= surface { density } else { 0.0 };
@@ -557,8 +567,7 @@ mod tests {
         let capped =
             RayMarcher::new(&MarchSettings { max_samples: 16, ..Default::default() }, 2.0 * 3f32.sqrt(), 0.01, 8);
         let reach = |marcher: &RayMarcher| {
-            let (mut t, mut dt) = (Vec::new(), Vec::new());
-            marcher.march(Vec3::new(0.01, 0.02, 5.0), -Vec3::Z, &grid, 0.5, false, &mut t, &mut dt);
+            let (t, dt) = march(marcher);
             (t.len(), t.last().copied().unwrap_or(0.0) + dt.last().copied().unwrap_or(0.0))
         };
         let ((n1, far1), (n2, far2)) = (reach(&capped), reach(&capped.with_step_scale(0.5)));

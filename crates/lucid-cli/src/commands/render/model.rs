@@ -39,8 +39,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("--width and --height must be positive");
     }
     let mut loaded = LoadedModel::load(&args.scene)?;
-    loaded.set_pixel_rays(args.pixel_rays, "--pixel-rays")?;
-    loaded.set_step_scale(args.step_scale, "--step-scale")?;
+    loaded.set_nerf_view(&args.nerf)?;
     let frame = loaded.view().frame;
     // Lengths on the command line are the dataset's; the model measures in the scene's.
     let to_scene = |length: f32| frame.map_or(length, |n| length * n.scale as f32);
