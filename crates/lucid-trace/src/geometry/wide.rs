@@ -5,7 +5,9 @@
 //! compiled for AVX2 where the CPU has it ([`wide`]: one 8-wide register per row; two SSE
 //! registers otherwise, with the same numbers). A subtree of at most eight triangles becomes
 //! one leaf packet, so a small scene is a root and a few packets. Closest-hit queries visit
-//! children nearest first and skip any whose entry distance is beyond the best hit so far.
+//! children front to back in an order stored per octant of ray directions (a ray's own entry
+//! distances sorted cost more in mispredicted branches than they saved) and skip any whose
+//! entry distance is beyond the best hit so far.
 //! Written by hand for the reason `bvh.rs` gives.
 
 use std::mem::MaybeUninit;
@@ -33,6 +35,31 @@ const STACK: usize = 256;
 pub(super) struct Node8 {
     pub(super) bounds: [[[f32; W]; 3]; 2],
     pub(super) children: [u32; W],
+    /// Per octant of ray directions ([`octant`]), the children front to back: slot numbers of
+    /// three bits each from the lowest, and how many children there are in bits 24 and up.
+    pub(super) order: [u32; W],
+}
+
+/// The octant of direction `d`: bit `a` set where its coordinate `a` is negative.
+#[inline(always)]
+pub(super) fn octant(d: [f32; 3]) -> usize {
+    (d[0] < 0.0) as usize | ((d[1] < 0.0) as usize) << 1 | ((d[2] < 0.0) as usize) << 2
+}
+
+/// [`Node8::order`] for `centres`, the children's box centres: in each octant, ordered by the
+/// centre's distance along the octant's diagonal (a ray of that octant meets a box further
+/// along it later, where the boxes do not overlap much along it).
+fn child_orders(centres: &[glam::Vec3]) -> [u32; W] {
+    std::array::from_fn(|oct| {
+        let diagonal = glam::Vec3::new(
+            if oct & 1 != 0 { -1.0 } else { 1.0 },
+            if oct & 2 != 0 { -1.0 } else { 1.0 },
+            if oct & 4 != 0 { -1.0 } else { 1.0 },
+        );
+        let mut slots: Vec<usize> = (0..centres.len()).collect();
+        slots.sort_by(|&a, &b| centres[a].dot(diagonal).total_cmp(&centres[b].dot(diagonal)));
+        slots.iter().enumerate().fold((centres.len() as u32) << 24, |order, (k, &c)| order | (c as u32) << (3 * k))
+    })
 }
 
 /// Eight triangles as a vertex and two edges per lane, one row per coordinate.
@@ -62,6 +89,8 @@ struct RayQuery {
     d: [f32; 3],
     /// Per axis, 1 where the direction is negative: which box corner the ray enters by.
     sign: [usize; 3],
+    /// The direction's [`octant`].
+    octant: usize,
     origin: Vec3A,
     direction: Vec3A,
     /// The origin and inverse direction per axis, in every lane.
@@ -78,6 +107,7 @@ impl RayQuery {
             o: o.to_array(),
             d: d.to_array(),
             sign: [(inv.x < 0.0) as usize, (inv.y < 0.0) as usize, (inv.z < 0.0) as usize],
+            octant: octant(d.to_array()),
             origin: o,
             direction: d,
             o4: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
@@ -228,7 +258,12 @@ impl WideBvh {
             kids.extend([a, b]);
         }
         let slot = self.nodes.len();
-        self.nodes.push(Node8 { bounds: [[[f32::INFINITY; W]; 3], [[f32::NEG_INFINITY; W]; 3]], children: [EMPTY; W] });
+        let centres: Vec<glam::Vec3> = kids.iter().map(|&kid| nodes[kid as usize].bounds.centre()).collect();
+        self.nodes.push(Node8 {
+            bounds: [[[f32::INFINITY; W]; 3], [[f32::NEG_INFINITY; W]; 3]],
+            children: [EMPTY; W],
+            order: child_orders(&centres),
+        });
         for (lane, &kid) in kids.iter().enumerate() {
             let b = nodes[kid as usize].bounds;
             let child = self.collapse(nodes, spans, shapes, kid);
@@ -313,39 +348,14 @@ impl WideBvh {
                 continue;
             }
             let n = &self.nodes[node as usize];
-            let (mut mask, entries) = q.boxes(n, t_min, closest);
-            // The children met, nearest first. Leaves are tested right away, in that order,
-            // stopping at the first that starts beyond the best hit; inner nodes go on the
-            // stack, the nearest on top. Small scenes are mostly a root over leaves, whose
-            // trips through the stack cost more than their boxes.
-            let mut hits = [(0u32, 0f32); W];
-            let mut k = 0;
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let mut j = k;
-                while j > 0 && hits[j - 1].1 > entries[lane] {
-                    hits[j] = hits[j - 1];
-                    j -= 1;
-                }
-                hits[j] = (n.children[lane], entries[lane]);
-                k += 1;
-            }
-            let mut inner = [(0u32, 0f32); W];
-            let mut m = 0;
-            for &(child, entry) in &hits[..k] {
-                if entry >= closest {
-                    break;
-                }
-                if child & LEAF != 0 {
-                    self.closest_in_leaf(&q, child, t_min, &mut closest, &mut best);
-                } else {
-                    inner[m] = (child, entry);
-                    m += 1;
-                }
-            }
-            for &hit in inner[..m].iter().rev() {
-                stack.push(hit);
+            let (mask, entries) = q.boxes(n, t_min, closest);
+            // The children met, pushed back to front for the ray's direction, the nearest on
+            // top; those that turn out to start beyond a hit found first are dropped when
+            // popped. Without a branch per child, which went either way at random.
+            let order = n.order[q.octant];
+            for k in (0..(order >> 24) as usize).rev() {
+                let c = (order >> (3 * k)) as usize & 7;
+                stack.push_if((n.children[c], entries[c]), mask >> c & 1 != 0);
             }
         }
         best
@@ -475,6 +485,14 @@ impl<T: Copy> Stack<T> {
         self.len += 1;
     }
 
+    /// Pushes `item` where `keep`, without a branch: it is written either way, and kept only
+    /// by counting it.
+    #[inline(always)]
+    pub(super) fn push_if(&mut self, item: T, keep: bool) {
+        self.items[self.len].write(item);
+        self.len += keep as usize;
+    }
+
     #[inline(always)]
     pub(super) fn pop(&mut self) -> Option<T> {
         self.len = self.len.checked_sub(1)?;
@@ -482,5 +500,42 @@ impl<T: Copy> Stack<T> {
         // SAFETY: every slot below `len` was written by `push` (slots are only read below the
         // length they were pushed at, and `len` only grows through `push`).
         Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+
+    /// The slots of an order word, front to back.
+    fn slots(order: u32) -> Vec<u32> {
+        (0..order >> 24).map(|k| order >> (3 * k) & 7).collect()
+    }
+
+    #[test]
+    fn children_are_ordered_front_to_back_per_octant() {
+        // Three boxes along x, slot 0 in the middle; the y and z offsets are smaller than the
+        // spacing along x, so the diagonal's x decides.
+        let centres = [Vec3::new(0.0, 0.1, 0.0), Vec3::new(-1.0, 0.0, 0.2), Vec3::new(1.0, -0.1, 0.0)];
+        let orders = child_orders(&centres);
+        for (oct, &order) in orders.iter().enumerate() {
+            let want = if oct & 1 == 0 { vec![1, 0, 2] } else { vec![2, 0, 1] };
+            assert_eq!(slots(order), want, "octant {oct}");
+        }
+        assert_eq!(octant([1.0, 2.0, 3.0]), 0);
+        assert_eq!(octant([-1.0, 2.0, -3.0]), 0b101);
+        // A full node: every slot once, in every octant.
+        let eight: Vec<Vec3> = (0..8).map(|i| Vec3::new(i as f32, (i * 5 % 8) as f32, (i * 3 % 8) as f32)).collect();
+        for order in child_orders(&eight) {
+            let mut s = slots(order);
+            s.sort();
+            assert_eq!(s, (0..8).collect::<Vec<_>>());
+        }
+        // Along the diagonal of octant 0b110 (x up, y and z down), the box furthest towards
+        // -x, +y, +z comes first.
+        let diagonal = [Vec3::new(2.0, -2.0, -2.0), Vec3::new(-2.0, 2.0, 2.0), Vec3::ZERO];
+        assert_eq!(slots(child_orders(&diagonal)[0b110]), vec![1, 2, 0]);
     }
 }
