@@ -13,16 +13,22 @@ benchmark's settings (256x256, 64 spp, path tracing with max depth 8; reference 
     python3 scripts/compare-mitsuba.py [--lucid PATH] [--rounds 6]
 
 Each round runs `lucid bench trace` once and renders once with each Mitsuba variant, each in
-a process of its own (the LLVM variant's kernels are compiled by an untimed render first). It
+a process of its own (the LLVM variant's kernels are compiled by an untimed render first).
+Each round runs lucid from a fresh copy of its binary: on these machines one file of the same
+binary ran 10 % slower than a copy of it, run after run (where the file's pages happen to lie
+in memory), so the median is over several placements rather than one; the LLVM variant's
+kernels are compiled into fresh memory by each process anyway. It
 prints each renderer's median wall time, the ratios, and lucid's time scaled to the
 machine the target was set on (where the scalar build took 3.2 s and the LLVM build 1.2 s).
 """
 
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 ISSUE_SECONDS = {"scalar_rgb": 3.2, "llvm_ad_rgb": 1.2}
@@ -120,20 +126,24 @@ def main():
     variants = list(ISSUE_SECONDS)
     times = {"lucid": []} | {v: [] for v in variants}
     means = {}
-    for r in range(args.rounds):
-        wall, means["lucid"] = lucid_run(args.lucid)
-        times["lucid"].append(wall)
-        for variant in list(variants):
-            try:
-                wall, means[variant] = mitsuba_run(variant, r + 1)
-            except RuntimeError as e:
-                print(f"warning: Mitsuba variant {variant} failed, left out: {e}", file=sys.stderr)
-                variants.remove(variant)
-                del times[variant]
-                means.pop(variant, None)
-                continue
-            times[variant].append(wall)
-        print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.3f} s" for k, v in times.items()), flush=True)
+    with tempfile.TemporaryDirectory(prefix="compare-mitsuba-") as scratch:
+        for r in range(args.rounds):
+            copy = os.path.join(scratch, f"lucid-{r + 1}")
+            shutil.copy2(args.lucid, copy)
+            wall, means["lucid"] = lucid_run(copy)
+            os.remove(copy)
+            times["lucid"].append(wall)
+            for variant in list(variants):
+                try:
+                    wall, means[variant] = mitsuba_run(variant, r + 1)
+                except RuntimeError as e:
+                    print(f"warning: Mitsuba variant {variant} failed, left out: {e}", file=sys.stderr)
+                    variants.remove(variant)
+                    del times[variant]
+                    means.pop(variant, None)
+                    continue
+                times[variant].append(wall)
+            print(f"round {r + 1}: " + "  ".join(f"{k} {v[-1]:.3f} s" for k, v in times.items()), flush=True)
 
     lucid = statistics.median(times["lucid"])
     print(f"\n{'renderer':<20}{'median (s)':>11}{'min (s)':>9}{'lucid / it':>12}{'lucid scaled (s)':>18}")
