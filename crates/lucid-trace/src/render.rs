@@ -270,8 +270,12 @@ fn render_paths(
     let spp = settings.spp.max(1);
     let done = AtomicUsize::new(0);
     let packets = PathTracer::packet_supports(scene);
+    // One row per task: rows cost very different amounts (sky against geometry), and rayon's
+    // adaptive splitting left one core idle for the last tenth of a studio render whose
+    // rows it had handed out in large runs.
     let rows: Vec<(Vec<[[f32; 4]; 4]>, u64)> = (0..h)
         .into_par_iter()
+        .with_max_len(1)
         .map(|j| {
             let row = if packets {
                 render_row_in_packets(scene, camera, settings, forward, spp, j, w)
