@@ -211,8 +211,10 @@ fn render_bidirectional(
     let done = AtomicUsize::new(0);
     let film = SplatFilm::new(w, h);
     let sampler = Bidirectional::new(scene, CameraImportance::new(camera), &settings.path, strategies);
+    // One row per task, as in `render_paths`.
     let rows: Vec<Vec<PixelSum>> = (0..h)
         .into_par_iter()
+        .with_max_len(1)
         .map_init(Subpaths::default, |paths, j| {
             let pixels = (0..w)
                 .map(|i| {
