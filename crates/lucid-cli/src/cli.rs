@@ -4,8 +4,14 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+mod generate;
+mod hdr;
 mod tools;
+mod train;
+pub use generate::*;
+pub use hdr::*;
 pub use tools::*;
+pub use train::*;
 
 /// Lucid: neural scene representations (NeRF, 3D Gaussian splatting) trained on the CPU from
 /// physically based synthetic datasets.
@@ -78,68 +84,6 @@ pub enum Command {
     Dual(DualArgs),
 }
 
-/// `lucid hdr`.
-#[derive(Debug, Args)]
-pub struct HdrArgs {
-    /// What to do.
-    #[command(subcommand)]
-    pub command: HdrCommand,
-}
-
-/// HDR subcommands.
-#[derive(Debug, Subcommand)]
-pub enum HdrCommand {
-    /// Merge LDR exposures of one view into an HDR radiance image (or fuse them with
-    /// `--method mertens`).
-    Merge(HdrMergeArgs),
-}
-
-/// How brackets become one image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum MergeMethod {
-    /// Recover the response by Debevec–Malik least squares, then merge.
-    Debevec,
-    /// Recover the response by Robertson's iteration, then merge.
-    Robertson,
-    /// Assume the sRGB response (no recovery), then merge.
-    Srgb,
-    /// Mertens exposure fusion: a display image directly, no response or times needed.
-    Mertens,
-}
-
-/// `lucid hdr merge`.
-#[derive(Debug, Args)]
-pub struct HdrMergeArgs {
-    /// LDR frames of one view (PNG/JPEG), or one dataset folder made by the `brackets` rig
-    /// (exposure times are read from its transforms JSON).
-    #[arg(required = true)]
-    pub inputs: Vec<PathBuf>,
-    /// Exposure times in seconds, one per frame, comma-separated (not with a dataset).
-    #[arg(long, value_delimiter = ',')]
-    pub times: Vec<f32>,
-    /// Dataset input: which view's brackets (index in the split's order of views).
-    #[arg(long, default_value_t = 0)]
-    pub view: usize,
-    /// Dataset input: which split.
-    #[arg(long, value_enum, default_value_t = SplitArg::Train)]
-    pub split: SplitArg,
-    /// Output image: .exr, .hdr or .pfm for radiance; any format for `mertens`.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Merge method.
-    #[arg(long, value_enum, default_value_t = MergeMethod::Debevec)]
-    pub method: MergeMethod,
-    /// Debevec–Malik smoothness weight λ.
-    #[arg(long, default_value_t = 50.0)]
-    pub lambda: f32,
-    /// Pixels sampled per channel for response recovery.
-    #[arg(long, default_value_t = 200)]
-    pub samples: usize,
-    /// Also write the recovered response curve as CSV (code, ln exposure per channel).
-    #[arg(long)]
-    pub response_out: Option<PathBuf>,
-}
-
 /// A dataset split.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum SplitArg {
@@ -161,393 +105,6 @@ impl From<SplitArg> for lucid_scene::Split {
     }
 }
 
-/// Tone-mapping operators.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum TonemapOp {
-    /// Exposure then clip.
-    Linear,
-    /// Reinhard's global photographic operator (key, white point, log-average luminance).
-    Reinhard,
-    /// Drago's adaptive logarithmic mapping.
-    Drago,
-    /// ACES filmic fit.
-    Aces,
-    /// Reinhard's local dodge-and-burn (multi-scale centre-surround).
-    Photographic,
-    /// Durand–Dorsey bilateral base/detail decomposition.
-    Bilateral,
-}
-
-/// `lucid tonemap`.
-#[derive(Debug, Args)]
-pub struct TonemapArgs {
-    /// HDR input (.exr, .hdr, .pfm; LDR files work too).
-    pub input: PathBuf,
-    /// Output display image (.png, .jpg; .exr keeps the display values as floats).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Operator.
-    #[arg(long, value_enum, default_value_t = TonemapOp::Reinhard)]
-    pub op: TonemapOp,
-    /// Exposure in stops before the curve (linear, drago, aces).
-    #[arg(long, allow_negative_numbers = true)]
-    pub exposure: Option<f32>,
-    /// Key value: the display luminance of the scene's log-average (reinhard, photographic;
-    /// default 0.18).
-    #[arg(long)]
-    pub key: Option<f32>,
-    /// Scaled luminance that maps to white (reinhard; default the image's maximum).
-    #[arg(long)]
-    pub white: Option<f32>,
-    /// Logarithm bias in (0, 1) (drago; default 0.85).
-    #[arg(long)]
-    pub bias: Option<f32>,
-    /// Sharpening φ (photographic; default 8).
-    #[arg(long)]
-    pub sharpening: Option<f32>,
-    /// Centre-surround threshold ε (photographic; default 0.05).
-    #[arg(long)]
-    pub threshold: Option<f32>,
-    /// Contrast ratio of the compressed base layer (bilateral; default 5).
-    #[arg(long)]
-    pub contrast: Option<f32>,
-    /// Spatial σ as a fraction of the image size (bilateral; default 0.02).
-    #[arg(long)]
-    pub spatial_sigma: Option<f32>,
-    /// Range σ in log10 luminance (bilateral; default 0.4).
-    #[arg(long)]
-    pub range_sigma: Option<f32>,
-    /// Colour saturation: 1 keeps the input's ratios, below 1 desaturates.
-    #[arg(long, default_value_t = 1.0)]
-    pub saturation: f32,
-}
-
-/// `lucid train`.
-#[derive(Debug, Args)]
-pub struct TrainArgs {
-    /// What to train.
-    #[command(subcommand)]
-    pub model: TrainModel,
-}
-
-/// The trainable models.
-#[derive(Debug, Subcommand)]
-pub enum TrainModel {
-    /// Hash-grid NeRF (instant-ngp style) with an occupancy grid.
-    Nerf(TrainModelArgs),
-    /// 3D Gaussian splatting (tile rasterizer, densification; exports a standard .ply).
-    Splat(TrainModelArgs),
-    /// Inverse tone mapping network (LDR to HDR) on `brackets` datasets.
-    Itm(TrainItmArgs),
-    /// Neural relighting on an `olat` dataset: 3DGS geometry, then per-Gaussian features
-    /// decoded with the light direction; renders novel views under novel lights and
-    /// environment maps.
-    Relight(TrainModelArgs),
-}
-
-/// `lucid train itm`.
-#[derive(Debug, Args)]
-pub struct TrainItmArgs {
-    /// Dataset folders made by the `brackets` rig (several scenes; their train splits train,
-    /// their test splits evaluate).
-    #[arg(required = true)]
-    pub datasets: Vec<PathBuf>,
-    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, run.json,
-    /// eval_test/metrics.json.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Configuration file (configs/itm/default.toml); defaults are used for missing keys.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// Override any configuration key, e.g. `--set train.batch=4` (repeatable; TOML values).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub overrides: Vec<String>,
-    /// Budget, resume and evaluation.
-    #[command(flatten)]
-    pub run: RunArgs,
-}
-
-/// How a dataset without split files (a lone transforms.json, a COLMAP capture) is split,
-/// and at what scale a capture's photographs are read.
-#[derive(Clone, Copy, Debug, Args)]
-pub struct DatasetArgs {
-    /// Without split files: every Nth image by sorted name is a test view (the Mip-NeRF 360 /
-    /// LLFF convention); 0 holds none out. Use the same value to train and to evaluate.
-    #[arg(long, default_value_t = 8, value_name = "N")]
-    pub holdout_every: usize,
-    /// Captures: read the photographs at 1/N size, from images_N/ where it exists, else
-    /// resized on reading.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub downscale: Option<u32>,
-    /// Which description of the cameras to read where a folder holds both (nerfstudio's
-    /// layout): transforms files, or the COLMAP model. Default: transforms files first.
-    #[arg(long, value_enum)]
-    pub format: Option<DatasetFormatArg>,
-}
-
-/// `--format`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DatasetFormatArg {
-    /// transforms_*.json or transforms.json.
-    Transforms,
-    /// sparse/0 (COLMAP, binary or text).
-    Colmap,
-}
-
-impl DatasetArgs {
-    /// The reader's options.
-    pub fn options(&self) -> lucid_scene::dataset::OpenOptions {
-        use lucid_scene::dataset::DatasetFormat;
-        let format = self.format.map(|f| match f {
-            DatasetFormatArg::Transforms => DatasetFormat::Transforms,
-            DatasetFormatArg::Colmap => DatasetFormat::Colmap,
-        });
-        lucid_scene::dataset::OpenOptions { holdout_every: self.holdout_every, downscale: self.downscale, format }
-    }
-}
-
-/// `lucid train nerf|splat|relight`.
-#[derive(Debug, Args)]
-pub struct TrainModelArgs {
-    /// Dataset folder: transforms_train.json (or transforms.json) and images, or a capture
-    /// (a COLMAP model in sparse/0 and images/).
-    pub dataset: PathBuf,
-    /// Output folder: checkpoint.lucid, config.toml, train_log.csv, run.json, eval results.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Configuration file (configs/nerf/*.toml, configs/splat/*.toml); defaults are used
-    /// for missing keys.
-    #[arg(long)]
-    pub config: Option<PathBuf>,
-    /// Override any configuration key, e.g. `--set train.batch_samples=32768` (NeRF),
-    /// `--set densify.grad_threshold=0.0003` (splat) (repeatable; TOML values).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub overrides: Vec<String>,
-    /// Budget, resume and evaluation.
-    #[command(flatten)]
-    pub run: RunArgs,
-    /// Splits and scale of captures.
-    #[command(flatten)]
-    pub data: DatasetArgs,
-    /// NeRF and splats: serve the viewer's page while training, on 127.0.0.1:PORT (7007
-    /// without a value; 0: any free port): the model as it trains, the step, the loss and the
-    /// held-out PSNR. Its renders and scores take at most 6.5 % of the wall time from training.
-    #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "7007")]
-    pub view: Option<u16>,
-}
-
-/// What every `lucid train` shares: the budget, resuming, the output folder's handling.
-///
-/// The budget has one meaning for every model: `--steps N` alone trains N steps;
-/// `--time-limit S` alone trains S seconds, with the schedules (learning-rate decay,
-/// densification, SH degrees) stretched over them; both: whichever ends first; neither: the
-/// configuration's `train.steps` (and `train.time_limit` where set: whichever ends first).
-#[derive(Debug, Args)]
-pub struct RunArgs {
-    /// Optimiser steps (train.steps); alone, the run ends after them.
-    #[arg(long)]
-    pub steps: Option<usize>,
-    /// Seconds of training; alone, the run ends after them, however many steps that is.
-    #[arg(long)]
-    pub time_limit: Option<f64>,
-    /// Random seed (train.seed).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Stop at this step and save, as if interrupted there: the schedules still span the
-    /// budget, and `--resume` continues (training in stages).
-    #[arg(long)]
-    pub until: Option<usize>,
-    /// Continue the run in OUTPUT from its checkpoint (its configuration and budget win;
-    /// --steps or --time-limit set a new budget).
-    #[arg(long, conflicts_with = "overwrite")]
-    pub resume: bool,
-    /// Replace the run in OUTPUT: its files (checkpoint, config, log, run.json, splats.ply,
-    /// eval_*/) are removed first. Without it, a folder holding a run is refused.
-    #[arg(long)]
-    pub overwrite: bool,
-    /// Seconds of training between checkpoints (also every train.checkpoint_every steps, and
-    /// at the end); 0: not by time.
-    #[arg(long, default_value_t = lucid_burn::run::DEFAULT_CHECKPOINT_SECONDS)]
-    pub checkpoint_seconds: f64,
-    /// Skip the evaluation on the test split at the end.
-    #[arg(long)]
-    pub no_eval: bool,
-}
-
-/// `lucid eval`.
-#[derive(Debug, Args)]
-pub struct EvalArgs {
-    /// A checkpoint written by `lucid train`.
-    pub checkpoint: PathBuf,
-    /// The dataset folder to evaluate on.
-    pub dataset: PathBuf,
-    /// Which split.
-    #[arg(long, default_value = "test")]
-    pub split: String,
-    /// Output folder for renders, depth and error maps, and metrics.json (default: beside
-    /// the checkpoint, `eval_<split>`).
-    #[arg(short, long)]
-    pub output: Option<PathBuf>,
-    /// Evaluate only the first N views.
-    #[arg(long)]
-    pub limit: Option<usize>,
-    /// Render every view with a pinhole, even where the dataset gives a thin lens
-    /// (`aperture_radius`, `focus_distance`) for it.
-    #[arg(long)]
-    pub pinhole: bool,
-    /// How a NeRF checkpoint's rays are cast.
-    #[command(flatten)]
-    pub nerf: NerfViewArgs,
-    /// Print the results as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Splits and scale of captures (as the run was trained with).
-    #[command(flatten)]
-    pub data: DatasetArgs,
-}
-
-/// Camera rigs of `lucid gen`.
-#[derive(Clone, Copy, Debug, ValueEnum, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RigArg {
-    /// Cameras on the upper hemisphere (or sphere) around the origin, looking at it.
-    Orbit,
-    /// Orbit cameras, each view also recorded as LDR frames at several exposure times
-    /// through a camera response curve with sensor noise (HDR truth kept beside them).
-    Brackets,
-    /// A U×V grid of parallel cameras (sub-aperture views, the training split) and thin-lens
-    /// ground truths from its centre (the test split), for refocusing.
-    Lightfield,
-    /// Orbit views, each rendered once per directional light spread over the sphere (one light
-    /// at a time, linear HDR), plus the validation and test views under held-out lights and
-    /// environment maps.
-    Olat,
-    /// A capture: photographs from a hand-held ring (`images/`) with the sparse COLMAP model
-    /// structure-from-motion would make of them (`sparse/0/`), for unbounded scenes such as
-    /// `garden`.
-    Capture,
-}
-
-/// Camera response curves of the brackets rig.
-#[derive(Clone, Copy, Debug, ValueEnum, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ResponseArg {
-    /// The sRGB transfer function.
-    Srgb,
-    /// A film-like S-curve.
-    Scurve,
-}
-
-/// `lucid gen`.
-#[derive(Debug, Args)]
-pub struct GenArgs {
-    /// A built-in scene (cornell, spheres, materials, media, object, studio, garden, trophy, toys,
-    /// caustic, door, many-lights, materials2) or a scene .toml file.
-    pub scene: String,
-    /// The camera rig: orbit, brackets, lightfield, olat, or a rig file (configs/rigs/*.toml)
-    /// whose `type` is one of those and whose keys set the options below (options given on
-    /// the command line win).
-    #[arg(long, default_value = "orbit")]
-    pub rig: String,
-    /// Output dataset folder.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Views in the train, val and test splits, as TRAIN,VAL,TEST (the Blender set's split).
-    #[arg(long, default_value = "100,100,200", value_parser = parse_split_counts)]
-    pub views: [usize; 3],
-    /// Image width and height in pixels.
-    #[arg(long, default_value_t = 200)]
-    pub res: u32,
-    /// Samples per pixel (default: the scene's).
-    #[arg(long)]
-    pub spp: Option<u32>,
-    /// Seed of the rig and of the renders (default: the scene's).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// Light-transport algorithm of the renders (default: the scene's integrator.type):
-    /// path, bdpt, light-tracing, sppm, vpl, lightcuts, irradiance-cache or pssmlt, with their default parameters.
-    #[arg(long, value_parser = parse_integrator)]
-    pub integrator: Option<lucid_trace::Integrator>,
-    /// Distance of the orbit cameras from the origin.
-    #[arg(long, default_value_t = 4.0)]
-    pub radius: f32,
-    /// Horizontal field of view in degrees.
-    #[arg(long, default_value_t = 40.0)]
-    pub fov: f32,
-    /// Cameras on the whole sphere instead of the upper hemisphere.
-    #[arg(long)]
-    pub full_sphere: bool,
-    /// Render only shard I of N (every N-th frame starting at I), e.g. `--shard 0/4`, so that
-    /// N machines split one dataset; run with `--merge` (or once more unsharded) at the end.
-    #[arg(long, value_parser = parse_shard)]
-    pub shard: Option<(usize, usize)>,
-    /// Render nothing: check that every frame exists and write the transforms files and
-    /// `points3d.ply` (the last step of a sharded generation).
-    #[arg(long, conflicts_with = "shard")]
-    pub merge: bool,
-    /// Brackets rig: exposures in stops relative to 1 s, e.g. `-2,0,2`.
-    #[arg(long, value_delimiter = ',', default_value = "-2,0,2", allow_negative_numbers = true)]
-    pub exposures: Vec<f32>,
-    /// Brackets rig: the camera response curve.
-    #[arg(long, value_enum, default_value_t = ResponseArg::Srgb)]
-    pub response: ResponseArg,
-    /// Brackets rig: electrons at full well (shot noise); 0 disables sensor noise.
-    #[arg(long, default_value_t = 4000.0)]
-    pub full_well: f32,
-    /// Brackets rig: read noise, standard deviation in full-well units.
-    #[arg(long, default_value_t = 0.002)]
-    pub read_noise: f32,
-    /// Light-field rig: cameras along U and V, as U,V.
-    #[arg(long, value_delimiter = ',', num_args = 1, default_value = "9,9")]
-    pub grid: Vec<usize>,
-    /// Light-field rig: distance between neighbouring cameras.
-    #[arg(long, default_value_t = 0.1)]
-    pub spacing: f32,
-    /// Light-field rig: focus distances of the thin-lens ground truths.
-    #[arg(long, value_delimiter = ',', default_value = "3.5,4.5")]
-    pub focus: Vec<f32>,
-    /// Light-field rig: aperture radii of the thin-lens ground truths.
-    #[arg(long, value_delimiter = ',', default_value = "0.2,0.4")]
-    pub apertures: Vec<f32>,
-    /// OLAT rig: number of directional lights, spread over the sphere.
-    #[arg(long, default_value_t = 32)]
-    pub lights: usize,
-    /// OLAT rig: irradiance of each light (π: a white diffuse surface facing it renders 1).
-    #[arg(long, default_value_t = std::f32::consts::PI)]
-    pub light_irradiance: f32,
-    /// OLAT rig: further lights, between the training ones, that light only the validation and test views
-    /// (each on its own): held-out light directions for evaluating relighting models.
-    #[arg(long, default_value_t = 8)]
-    pub held_out_lights: usize,
-    /// A reference sphere added to the scene for light-stage tools (repeat for more):
-    /// `chrome` or `diffuse`, optionally `@X,Y,Z` or `@X,Y,Z,R` in world units; spheres without
-    /// a place take four corners around the object in turn (radius 0.18). Recorded in
-    /// dataset.toml for `lucid lightstage calibrate`.
-    #[arg(long = "reference-sphere", value_name = "KIND[@X,Y,Z[,R]]")]
-    pub reference_spheres: Vec<lucid_datasets_gen::reference_spheres::SphereArg>,
-    /// Capture rig: number of photographs (every 8th by name is held out when training).
-    #[arg(long, default_value_t = 120)]
-    pub images: usize,
-    /// Capture rig: image height in pixels (default: --res, square).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Capture rig: the lens's radial distortion (COLMAP's SIMPLE_RADIAL k); 0 is a pinhole.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub k1: f32,
-    /// Capture rig: standard deviation of the orientation error SfM leaves, in degrees.
-    #[arg(long, default_value_t = 0.0)]
-    pub pose_noise: f32,
-    /// Capture rig: standard deviation of the position error, as a fraction of --radius.
-    #[arg(long, default_value_t = 0.0)]
-    pub position_noise: f32,
-    /// Capture rig: standard deviation of the sparse points' position error, world units.
-    #[arg(long, default_value_t = 0.0)]
-    pub point_noise: f32,
-    /// Capture rig: sparse points to aim for.
-    #[arg(long, default_value_t = 20000)]
-    pub points: usize,
-}
-
 /// `lucid refocus`.
 #[derive(Debug, Args)]
 pub struct RefocusArgs {
@@ -562,17 +119,6 @@ pub struct RefocusArgs {
     /// Output image (.exr keeps HDR; .png is clipped and sRGB-encoded).
     #[arg(short, long)]
     pub output: PathBuf,
-}
-
-/// Parses `I/N` with `I < N`.
-fn parse_shard(text: &str) -> Result<(usize, usize), String> {
-    let (i, n) = text.split_once('/').ok_or_else(|| format!("expected I/N, got {text:?}"))?;
-    let i: usize = i.trim().parse().map_err(|_| format!("{i:?} is not a shard index"))?;
-    let n: usize = n.trim().parse().map_err(|_| format!("{n:?} is not a shard count"))?;
-    if n == 0 || i >= n {
-        return Err(format!("shard {i}/{n} does not exist (need 0 <= I < N)"));
-    }
-    Ok((i, n))
 }
 
 /// What to benchmark.
@@ -734,20 +280,6 @@ pub struct RenderArgs {
     pub nerf: NerfViewArgs,
 }
 
-/// How `lucid eval` and `lucid render` cast a NeRF's rays (an error for splat checkpoints).
-#[derive(Args, Clone, Debug, Default)]
-pub struct NerfViewArgs {
-    /// NeRF checkpoints: rays per pixel, on a regular grid over its area, averaged (default:
-    /// the run's `train.eval_pixel_rays`).
-    #[arg(long)]
-    pub pixel_rays: Option<usize>,
-    /// NeRF checkpoints: march the rays at this fraction of the training steps, in (0, 1]
-    /// (default: the run's `march.render_step_scale`; finer is closer to what the model
-    /// learnt and slower).
-    #[arg(long)]
-    pub step_scale: Option<f32>,
-}
-
 /// Camera paths for rendering trained models.
 #[derive(Clone, Copy, Debug, PartialEq, ValueEnum)]
 pub enum CameraPathArg {
@@ -787,12 +319,13 @@ pub struct DemoArgs {
     pub full: bool,
 }
 
-/// Parses `TRAIN,VAL,TEST` view counts.
+/// Parses an integrator's name.
 fn parse_integrator(text: &str) -> Result<lucid_trace::Integrator, String> {
     lucid_trace::Integrator::from_name(text)
         .ok_or_else(|| format!("unknown integrator {text:?} (one of {})", lucid_trace::Integrator::names()))
 }
 
+/// Parses `TRAIN,VAL,TEST` view counts.
 fn parse_split_counts(text: &str) -> Result<[usize; 3], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     let [a, b, c] = parts.as_slice() else {
