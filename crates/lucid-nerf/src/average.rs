@@ -40,8 +40,8 @@ impl ParameterAverage {
     }
 
     /// An average that starts from these parameters.
-    pub fn start(window: f64, progress: f64, table: Vec<f32>, mlp: Vec<f32>) -> Self {
-        Self { state: AverageState { window, progress, updates: 1 }, table, mlp }
+    pub fn start(progress: f64, table: Vec<f32>, mlp: Vec<f32>) -> Self {
+        Self { state: AverageState { progress, updates: 1 }, table, mlp }
     }
 
     /// Takes in the parameters at budget fraction `progress`: over the first window the
@@ -49,19 +49,19 @@ impl ParameterAverage {
     /// average whose time constant is the window (each update weighs the budget fraction
     /// since the last one, over the window). A run resumed with a larger budget goes back in
     /// `progress`: the average starts again from these parameters. `window` is the run's
-    /// current one: a run resumed with another `train.average_window` goes on with it.
+    /// current one (the configuration's, not recorded beside the average): a run resumed with
+    /// another `train.average_window` goes on with it.
     pub fn update(&mut self, table: &[f32], mlp: &[f32], progress: f64, window: f64) {
         use rayon::prelude::*;
         assert_eq!((table.len(), mlp.len()), (self.table.len(), self.mlp.len()), "parameter shapes changed");
         assert!(window > 0.0, "an average needs a positive window");
         let state = &mut self.state;
         if progress < state.progress {
-            *self = Self::start(window, progress, table.to_vec(), mlp.to_vec());
+            *self = Self::start(progress, table.to_vec(), mlp.to_vec());
             return;
         }
-        state.window = window;
         state.updates += 1;
-        let weight = ((progress - state.progress) / state.window).max(1.0 / state.updates as f64).min(1.0) as f32;
+        let weight = ((progress - state.progress) / window).max(1.0 / state.updates as f64).min(1.0) as f32;
         state.progress = progress;
         let blend = |avg: &mut [f32], new: &[f32]| {
             for (a, &x) in avg.iter_mut().zip(new) {
@@ -89,19 +89,19 @@ impl ParameterAverage {
         if values.len() != table + mlp {
             return Err(AverageError(format!("{} values, the model has {}", values.len(), table + mlp)));
         }
-        if !(state.window > 0.0 && state.window.is_finite() && state.progress.is_finite()) {
-            return Err(AverageError(format!("window {} at progress {}", state.window, state.progress)));
+        if !state.progress.is_finite() {
+            return Err(AverageError(format!("progress {}", state.progress)));
         }
         let mlp = values.split_off(table);
         Ok(Self { state, table: values, mlp })
     }
 }
 
-/// Where an average stands, recorded in a checkpoint's header beside its parameters.
+/// Where an average stands, recorded in a checkpoint's header beside its parameters. Its
+/// time constant is the configuration's `train.average_window` (headers written before
+/// 2026-12-05 also hold a `window`, which is read past).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct AverageState {
-    /// Time constant, as a fraction of the budget.
-    pub window: f64,
     /// Budget fraction at the last update.
     pub progress: f64,
     /// Updates so far.
@@ -124,7 +124,7 @@ mod tests {
     /// Within the first window the average is the arithmetic mean of what it saw.
     #[test]
     fn the_first_window_is_the_plain_mean() {
-        let mut avg = ParameterAverage::start(0.1, 0.6, vec![1.0, -2.0], vec![0.5]);
+        let mut avg = ParameterAverage::start(0.6, vec![1.0, -2.0], vec![0.5]);
         let values = [(3.0f32, 4.0f32, 1.5f32), (-1.0, 0.0, 2.5), (7.0, 1.0, -0.5)];
         for (i, &(a, b, c)) in values.iter().enumerate() {
             avg.update(&[a, b], &[c], 0.6 + 0.01 * (i + 1) as f64, 0.1);
@@ -141,7 +141,7 @@ mod tests {
     #[test]
     fn then_it_lags_a_ramp_by_its_window() {
         let window = 0.05;
-        let mut avg = ParameterAverage::start(window, 0.0, vec![0.0], vec![0.0]);
+        let mut avg = ParameterAverage::start(0.0, vec![0.0], vec![0.0]);
         let dt = 1e-4;
         let mut t = 0.0;
         while t < 1.0 {
@@ -157,35 +157,34 @@ mod tests {
     /// average lags a ramp by the new window, not the one it started with.
     #[test]
     fn a_changed_window_takes_over() {
-        let mut avg = ParameterAverage::start(0.05, 0.0, vec![0.0], vec![0.0]);
+        let mut avg = ParameterAverage::start(0.0, vec![0.0], vec![0.0]);
         let dt = 1e-4;
         let mut t = 0.0;
         while t < 1.0 {
             t += dt;
             avg.update(&[t as f32], &[0.0], t, if t < 0.5 { 0.05 } else { 0.1 });
         }
-        assert_eq!(avg.state.window, 0.1);
         let lag = t - avg.table[0] as f64;
         assert!((lag - 0.1).abs() < 0.002, "lag {lag} against the new window 0.1");
     }
 
     #[test]
     fn a_larger_budget_starts_it_again() {
-        let mut avg = ParameterAverage::start(0.1, 0.9, vec![1.0], vec![2.0]);
+        let mut avg = ParameterAverage::start(0.9, vec![1.0], vec![2.0]);
         avg.update(&[3.0], &[4.0], 0.95, 0.1);
         avg.update(&[5.0], &[6.0], 0.7, 0.1);
-        assert_eq!(avg, ParameterAverage::start(0.1, 0.7, vec![5.0], vec![6.0]));
+        assert_eq!(avg, ParameterAverage::start(0.7, vec![5.0], vec![6.0]));
     }
 
     #[test]
     fn round_trips_through_bytes_and_rejects_damage() {
-        let mut avg = ParameterAverage::start(0.1, 0.7, vec![1.0, 2.0, 3.0], vec![4.0, 5.0]);
+        let mut avg = ParameterAverage::start(0.7, vec![1.0, 2.0, 3.0], vec![4.0, 5.0]);
         avg.update(&[0.0, 0.0, 0.0], &[1.0, 1.0], 0.71, 0.1);
         let values = crate::checkpoint::le_f32s(&avg.to_bytes()).expect("whole values");
         assert_eq!(ParameterAverage::from_parts(avg.state, values.clone(), 3, 2), Ok(avg.clone()));
         let short = ParameterAverage::from_parts(avg.state, values[..4].to_vec(), 3, 2).unwrap_err();
         assert!(short.to_string().contains("4 values, the model has 5"), "{short}");
-        let bad = AverageState { window: f64::NAN, ..avg.state };
+        let bad = AverageState { progress: f64::NAN, ..avg.state };
         assert!(ParameterAverage::from_parts(bad, values, 3, 2).is_err());
     }
 }

@@ -234,7 +234,7 @@ mod tests {
         };
         let (table, mlp) = values(&trainer.model);
         let shifted = |v: &[f32]| v.iter().map(|x| x + 1.0).collect::<Vec<f32>>();
-        trainer.average = Some(ParameterAverage::start(0.1, 0.9, shifted(&table), shifted(&mlp)));
+        trainer.average = Some(ParameterAverage::start(0.9, shifted(&table), shifted(&mlp)));
         trainer.error_map = Some(ErrorMap::new(&[(8, 8)], 1.0));
         save(&path, &trainer, 2.0).unwrap();
         let loaded = load(&path, &crate::backend::default_device()).unwrap().trainer;
@@ -242,12 +242,20 @@ mod tests {
         assert_eq!(values(&loaded.model), (table.clone(), mlp.clone()));
         assert_eq!(values(&loaded.eval_model()), (shifted(&table), shifted(&mlp)));
         assert!(loaded.error_map.is_some());
+        // A header written before the window left it (the window is the configuration's).
+        let old = with_header(&path, |h| {
+            let old = h.replacen("\"average\": {", "\"average\": {\"window\": 0.1,", 1);
+            assert_ne!(old, h, "the header has an average to add the window to");
+            old
+        });
+        let old_path = dir.path().join("old.lucid");
+        std::fs::write(&old_path, old).unwrap();
+        let old = load(&old_path, &crate::backend::default_device()).unwrap().trainer;
+        assert_eq!(old.average, trainer.average);
 
         let plain = dir.path().join("plain.lucid");
         save(&plain, &tiny_trainer(), 1.0).unwrap();
-        let claimed = with_header(&plain, |h| {
-            h.replacen('{', "{\"average\": {\"window\": 0.1, \"progress\": 0.9, \"updates\": 3},", 1)
-        });
+        let claimed = with_header(&plain, |h| h.replacen('{', "{\"average\": {\"progress\": 0.9, \"updates\": 3},", 1));
         let p = dir.path().join("claimed.lucid");
         std::fs::write(&p, claimed).unwrap();
         let err = load(&p, &crate::backend::default_device()).err().expect("an error").to_string();

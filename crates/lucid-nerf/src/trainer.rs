@@ -533,8 +533,7 @@ impl NerfTrainer {
         match &mut self.average {
             Some(average) => average.update(&table, &mlp, self.progress, self.config.train.average_window),
             None => {
-                self.average =
-                    Some(ParameterAverage::start(self.config.train.average_window, self.progress, table, mlp));
+                self.average = Some(ParameterAverage::start(self.progress, table, mlp));
             }
         }
     }

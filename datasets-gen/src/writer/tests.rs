@@ -73,7 +73,8 @@ fn olat_frames_have_one_light_each_and_light_adds_up_linearly() {
     use crate::olat::{OlatSpec, builtin_environments, sphere_directions};
     use crate::path_traced::PathTracedScene;
     let loaded =
-        lucid_trace::parse_scene(include_str!("../../../configs/scenes/studio.toml"), Path::new("studio.toml")).unwrap();
+        lucid_trace::parse_scene(include_str!("../../../configs/scenes/studio.toml"), Path::new("studio.toml"))
+            .unwrap();
     let renderer =
         PathTracedScene { scene: loaded.scene, settings: lucid_trace::RenderSettings { spp: 512, ..loaded.settings } };
     let olat = OlatSpec {
