@@ -46,6 +46,12 @@ pub(super) fn octant(d: [f32; 3]) -> usize {
     (d[0] < 0.0) as usize | ((d[1] < 0.0) as usize) << 1 | ((d[2] < 0.0) as usize) << 2
 }
 
+/// The child slots of one [`Node8::order`] word, front to back.
+#[inline(always)]
+pub(super) fn order_slots(order: u32) -> impl DoubleEndedIterator<Item = usize> {
+    (0..(order >> 24) as usize).map(move |k| (order >> (3 * k)) as usize & 7)
+}
+
 /// [`Node8::order`] for `centres`, the children's box centres: in each octant, ordered by the
 /// centre's distance along the octant's diagonal (a ray of that octant meets a box further
 /// along it later, where the boxes do not overlap much along it).
@@ -352,9 +358,7 @@ impl WideBvh {
             // The children met, pushed back to front for the ray's direction, the nearest on
             // top; those that turn out to start beyond a hit found first are dropped when
             // popped. Without a branch per child, which went either way at random.
-            let order = n.order[q.octant];
-            for k in (0..(order >> 24) as usize).rev() {
-                let c = (order >> (3 * k)) as usize & 7;
+            for c in order_slots(n.order[q.octant]).rev() {
                 stack.push_if((n.children[c], entries[c]), mask >> c & 1 != 0);
             }
         }
@@ -509,9 +513,8 @@ mod tests {
 
     use super::*;
 
-    /// The slots of an order word, front to back.
-    fn slots(order: u32) -> Vec<u32> {
-        (0..order >> 24).map(|k| order >> (3 * k) & 7).collect()
+    fn slots(order: u32) -> Vec<usize> {
+        order_slots(order).collect()
     }
 
     #[test]

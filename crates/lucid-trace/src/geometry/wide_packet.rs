@@ -17,7 +17,9 @@ use glam::Vec3;
 use lucid_scene::Ray;
 use lucid_scene::simd::{sign_mask8, wide};
 
-use super::wide::{EMPTY, LEAF, Node8, Stack, Triangle8, W, WideBvh, moller_trumbore, octant, range};
+use super::wide::{
+    EMPTY, LEAF, Leaf, Node8, Stack, Triangle8, W, WideBvh, moller_trumbore, octant, order_slots, range,
+};
 
 /// Rays per packet.
 pub const RAYS: usize = W;
@@ -171,14 +173,15 @@ fn blend_bits(mask: &Lanes, from: &[u32; RAYS], into: &mut [u32; RAYS]) {
     }
 }
 
-/// The triangles of packet `k` of a leaf with `triangles` in all (lanes past the last repeat
-/// it): counted, so that no repeated lane is tested.
-#[inline(always)]
-fn distinct(triangles: u32, k: usize) -> usize {
-    (triangles as usize - k * W).min(W)
-}
-
 impl WideBvh {
+    /// A leaf's packets of triangles, each with how many distinct triangles it holds (lanes
+    /// past a leaf's last triangle repeat it): counted, so that no repeated lane is tested.
+    #[inline(always)]
+    fn leaf_triangles(&self, leaf: &Leaf) -> impl Iterator<Item = (&Triangle8, usize)> {
+        let triangles = (leaf.shapes - leaf.curved.1) as usize;
+        self.packets[range(leaf.packets)].iter().enumerate().map(move |(k, tri)| (tri, (triangles - k * W).min(W)))
+    }
+
     /// Whether the rays in `lanes` should leave the packet for the subtree `node`: a node's
     /// boxes cost the packet eight tests (one per child, all rays at once) where one ray tests
     /// them in one, so only a few rays go on alone; a leaf costs the packet one test per shape
@@ -252,9 +255,7 @@ impl WideBvh {
             // 7 % faster without them, and the grid of cubes of `scripts/traversal-scenes.py`,
             // many boxes deep along every ray, 6 % faster than with the children unordered).
             let leader = lanes.trailing_zeros() as usize;
-            let order = n.order[octant([q.d[0][leader], q.d[1][leader], q.d[2][leader]])];
-            for k in (0..(order >> 24) as usize).rev() {
-                let c = (order >> (3 * k)) as usize & 7;
+            for c in order_slots(n.order[octant([q.d[0][leader], q.d[1][leader], q.d[2][leader]])]).rev() {
                 let mask = q.boxes(n, c, t_min, &best.t).0 & lanes;
                 stack.push_if((n.children[c], mask), mask != 0);
             }
@@ -266,12 +267,11 @@ impl WideBvh {
     #[inline(always)]
     fn closest_packet_leaf(&self, q: &PacketQuery, node: u32, t_min: f32, lanes: u32, best: &mut PacketHits) {
         let leaf = &self.leaves[(node & !LEAF) as usize];
-        let triangles = leaf.shapes - leaf.curved.1;
         // Lanes outside `lanes` are kept from updating by a reach that no hit is below; inside,
         // the reach is the best hit so far.
         let mut reach: Lanes = std::array::from_fn(|l| if lanes >> l & 1 == 0 { t_min } else { best.t[l] });
-        for (k, tri) in self.packets[range(leaf.packets)].iter().enumerate() {
-            for j in 0..distinct(triangles, k) {
+        for (tri, distinct) in self.leaf_triangles(leaf) {
+            for j in 0..distinct {
                 let (hit, t, u, v) = q.triangle(tri, j, t_min, &reach);
                 blend(&hit, &t, &mut reach);
                 blend(&hit, &t, &mut best.t);
@@ -323,9 +323,8 @@ impl WideBvh {
                 // The rays entering the leaf, each dropped from `lanes` once something blocks it.
                 let entering = lanes;
                 let leaf = &self.leaves[(node & !LEAF) as usize];
-                let triangles = leaf.shapes - leaf.curved.1;
-                'packets: for (k, tri) in self.packets[range(leaf.packets)].iter().enumerate() {
-                    for j in 0..distinct(triangles, k) {
+                'packets: for (tri, distinct) in self.leaf_triangles(leaf) {
+                    for j in 0..distinct {
                         lanes &= !sign_mask8(&q.triangle(tri, j, t_min, t_max).0);
                         if lanes == 0 {
                             break 'packets;
