@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Writes the two scenes the BVH traversal's ordering was measured on (README, "The traversal
-of 2026-12-05"): the Cornell box of configs/scenes/cornell.toml with its two boxes replaced by
+and the bounce loop of 2026-12-05"): the Cornell box of configs/scenes/cornell.toml with its
+two boxes replaced by
 
 - `knot.toml`: a torus knot of 786 432 triangles (4096 segments, 96 sides), a large mesh whose
   queries go deep into the tree;
