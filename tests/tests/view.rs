@@ -283,6 +283,94 @@ fn the_viewer_renders_what_lucid_render_renders_and_refuses_what_it_must() {
     assert_eq!(viewer.get("/api/info").status, 200);
 }
 
+/// The viewer under hostile clients: fifty connections that stay idle or trickle their heads
+/// do not keep a client that sends its request from being answered; renders whose clients
+/// vanished neither fill the queue nor hold the model; a field of view that rounds to 180° in
+/// f32 is refused; requests another web page sends are refused.
+#[test]
+fn the_viewer_outlasts_slow_idle_and_vanishing_clients() {
+    let dir = temp_dir();
+    let d = dir.path();
+    lucid_in(d, &["gen", "object", "-o", "ds", "--views", "8,1,1", "--res", "24", "--spp", "4", "--seed", "9"])
+        .success();
+    lucid_in(d, &["train", "nerf", "ds", "-o", "nerf", "--steps", "30", "--no-eval"]).success();
+    let viewer = Viewer::start(d, "nerf/checkpoint.lucid");
+    let small = format!("/api/render?{}", query(&novel_camera()));
+    assert_eq!(viewer.get(&small).status, 200);
+
+    // Twenty-five idle connections and twenty-five that send a byte of a head every 200 ms.
+    let connect = || TcpStream::connect(("127.0.0.1", viewer.port)).unwrap();
+    let idle: Vec<TcpStream> = (0..25).map(|_| connect()).collect();
+    let mut trickling: Vec<TcpStream> = (0..25).map(|_| connect()).collect();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let answered = std::thread::scope(|s| {
+        s.spawn(|| {
+            let head = b"GET /api/info HTTP/1.1\r\nHost: x\r\nX-Slow: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa";
+            for byte in head.iter().cycle().take(200) {
+                if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    break;
+                }
+                for stream in &mut trickling {
+                    let _ = stream.write_all(std::slice::from_ref(byte));
+                }
+                std::thread::sleep(std::time::Duration::from_millis(200));
+            }
+        });
+        std::thread::sleep(std::time::Duration::from_millis(500));
+        let started = std::time::Instant::now();
+        let reply = viewer.get(&small);
+        let seconds = started.elapsed().as_secs_f64();
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        (reply.status, seconds)
+    });
+    // The server of eight connection threads answered after the idle ones' 20-s timeout.
+    assert_eq!(answered.0, 200);
+    assert!(answered.1 < 5.0, "answered after {:.1} s beside 50 slow connections", answered.1);
+    drop(idle);
+
+    // Sixteen renders whose clients close at once: the next render is served, not refused.
+    let vanishing = format!(
+        "GET /api/render?{} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n",
+        query(&PinholeCamera { intrinsics: Intrinsics::from_fov_x(400, 400, 0.7), ..novel_camera() }),
+        viewer.port
+    );
+    for _ in 0..16 {
+        connect().write_all(vanishing.as_bytes()).unwrap();
+    }
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    let after = viewer.get(&small);
+    assert_eq!(after.status, 200, "{}", after.text());
+
+    // An abandoned render of 2048² pixels through a lens of 256 rays (minutes of work) is
+    // given up: the next render is answered in seconds.
+    let big = PinholeCamera { intrinsics: Intrinsics::from_fov_x(2048, 2048, 0.7), ..novel_camera() };
+    let huge = format!(
+        "GET /api/render?{}&aperture=0.1&focus=3&lens_rays=256 HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n",
+        query(&big),
+        viewer.port
+    );
+    let mut abandoned = connect();
+    abandoned.write_all(huge.as_bytes()).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    drop(abandoned);
+    let started = std::time::Instant::now();
+    assert_eq!(viewer.get(&small).status, 200);
+    let seconds = started.elapsed().as_secs_f64();
+    assert!(seconds < 10.0, "the abandoned render held the model for {seconds:.1} s");
+
+    // A field of view that is 180° in f32, and a request from another site's page.
+    let pose = query(&novel_camera());
+    let pose = pose.split("&fov=").next().unwrap();
+    let refused = viewer.get(&format!("/api/render?{pose}&fov=179.999999&w=40&h=30"));
+    assert_eq!(refused.status, 400, "{}", refused.text());
+    assert!(refused.text().contains("fov"), "{}", refused.text());
+    let foreign = viewer.raw(&format!(
+        "GET {small} HTTP/1.1\r\nHost: {{host}}\r\nOrigin: https://evil.example\r\nSec-Fetch-Site: cross-site\r\n\r\n"
+    ));
+    assert_eq!(foreign.status, 403, "{}", foreign.text());
+    assert_eq!(viewer.get(&small).status, 200, "the viewer still serves");
+}
+
 /// `lucid train ... --view`: the page follows the run (its step and loss), renders the model as
 /// it is, and the run trains the steps it was asked for.
 #[test]
@@ -300,6 +388,10 @@ fn a_training_run_is_viewed_while_it_trains() {
     // A render of the model as it is now, served between steps.
     let reply = viewer.get(&format!("/api/render?{}", query(&novel_camera())));
     assert_eq!(reply.png(d, "live.png").dimensions(), (40, 30));
+    // A field of view of 180° in f32 once stopped the run; it is refused and the run goes on.
+    let pose = query(&novel_camera());
+    let wide = viewer.get(&format!("/api/render?{}&fov=179.999999&w=40&h=30", pose.split("&fov=").next().unwrap()));
+    assert_eq!(wide.status, 400, "{}", wide.text());
     let truth = viewer.get("/api/truth?split=val&index=1").png(d, "live_truth.png");
     assert_eq!(truth.dimensions(), (32, 32));
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);

@@ -21,6 +21,7 @@ pub mod error;
 pub mod io;
 pub mod metrics;
 pub mod output;
+pub mod owned_folder;
 pub mod tonemap;
 
 pub use buffer::Image;

@@ -109,6 +109,9 @@ fn lens(frame: &Value) -> Result<Option<(f32, f32)>, String> {
     }
 }
 
+/// The widest vertical field of view a pinhole camera is built with, in degrees.
+pub const MAX_FOV_DEGREES: f32 = 179.0;
+
 fn camera(frame: &Value, width: u32, height: u32) -> Result<PinholeCamera, String> {
     let numbers: Vec<f32> = frame
         .get("camera_to_world")
@@ -134,10 +137,15 @@ pub fn camera_from_pose(camera_to_world: &[f32], fov_y: f64, width: u32, height:
     if !(r.transpose() * r).abs_diff_eq(Mat3::IDENTITY, 1e-3) || r.determinant() < 0.0 {
         return Err("'camera_to_world' is not a rigid pose (its rotation is not orthonormal)".into());
     }
-    if !(fov_y.is_finite() && fov_y > 0.0 && fov_y < 180.0) {
-        return Err("'fov' must be a vertical field of view in degrees, in (0, 180)".into());
+    // A pinhole's focal length tends to 0 as the angle nears 180°; past 179° (in f32, the
+    // precision the camera keeps) it is too short to render by.
+    if !(fov_y.is_finite() && fov_y > 0.0 && fov_y as f32 > 0.0 && fov_y as f32 <= MAX_FOV_DEGREES) {
+        return Err(format!("'fov' = {fov_y} must be a vertical field of view in degrees, in (0, {MAX_FOV_DEGREES}]"));
     }
     let f = 0.5 * height as f32 / (0.5 * (fov_y as f32).to_radians()).tan();
+    if !(f.is_finite() && f > 0.0) {
+        return Err(format!("'fov' = {fov_y} gives no usable focal length at a height of {height} pixels"));
+    }
     let k = Intrinsics::pinhole(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32);
     Ok(PinholeCamera::new(k, pose))
 }

@@ -50,6 +50,19 @@ pub trait ViewModel {
         seed: u64,
     ) -> RenderedView;
 
+    /// [`Self::render_view`], given up (`None`) once `abandoned` says so: a viewer's client
+    /// that has gone. A model that renders in parts asks between them.
+    fn render_view_unless(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        lens_rays: usize,
+        seed: u64,
+        abandoned: &dyn Fn() -> bool,
+    ) -> Option<RenderedView> {
+        (!abandoned()).then(|| self.render_view(camera, lens, lens_rays, seed))
+    }
+
     /// The background the renders are composited on (encoded).
     fn background(&self) -> [f32; 3];
 }

@@ -48,11 +48,15 @@ impl SplatRenderer<'_> {
         focus: f32,
         passes: usize,
         seed: u64,
-    ) -> (Vec<f32>, Vec<f32>) {
+        abandoned: &dyn Fn() -> bool,
+    ) -> Option<(Vec<f32>, Vec<f32>)> {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let mut acc = vec![0.0f32; w * h * 4];
         let mut depth = vec![0.0f32; w * h];
         for k in 0..passes {
+            if abandoned() {
+                return None;
+            }
             let d = concentric_disk(stratified_square(k, passes, seed)) * aperture;
             let (image, z) = self.render_pinhole(&lens_pinhole(camera, d.x, d.y, focus));
             for (a, v) in acc.iter_mut().zip(&image) {
@@ -62,7 +66,7 @@ impl SplatRenderer<'_> {
                 *a += v / passes as f32;
             }
         }
-        (acc, depth)
+        Some((acc, depth))
     }
 }
 
@@ -84,14 +88,25 @@ impl ViewModel for SplatRenderer<'_> {
         lens_rays: usize,
         seed: u64,
     ) -> RenderedView {
+        self.render_view_unless(camera, lens, lens_rays, seed, &|| false).expect("a render nobody abandons")
+    }
+
+    fn render_view_unless(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        lens_rays: usize,
+        seed: u64,
+        abandoned: &dyn Fn() -> bool,
+    ) -> Option<RenderedView> {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let (acc, depth) = match lens {
             None => self.render_pinhole(camera),
-            Some((aperture, focus)) => self.render_lens(camera, aperture, focus, lens_rays.max(1), seed),
+            Some((aperture, focus)) => self.render_lens(camera, aperture, focus, lens_rays.max(1), seed, abandoned)?,
         };
         let pixels: Vec<[f32; 4]> = acc.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
         let depth = pixels.iter().zip(&depth).map(|(p, d)| if p[3] > 1e-3 { d / p[3] } else { 0.0 }).collect();
-        RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples: self.cloud.len() }
+        Some(RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples: self.cloud.len() })
     }
 
     fn background(&self) -> [f32; 3] {

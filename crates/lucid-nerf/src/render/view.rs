@@ -58,6 +58,17 @@ impl ViewModel for ViewRenderer<'_> {
         self.render_lens(camera, lens, lens_rays, seed)
     }
 
+    fn render_view_unless(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        lens_rays: usize,
+        seed: u64,
+        abandoned: &dyn Fn() -> bool,
+    ) -> Option<RenderedView> {
+        self.render_lens_unless(camera, lens, lens_rays, seed, abandoned)
+    }
+
     fn background(&self) -> [f32; 3] {
         self.background
     }
@@ -78,6 +89,18 @@ impl ViewRenderer<'_> {
         rays: usize,
         seed: u64,
     ) -> RenderedView {
+        self.render_lens_unless(camera, lens, rays, seed, &|| false).expect("a render nobody abandons")
+    }
+
+    /// [`Self::render_lens`], given up between blocks of rays once `abandoned` says so.
+    fn render_lens_unless(
+        &self,
+        camera: &PinholeCamera,
+        lens: Option<(f32, f32)>,
+        rays: usize,
+        seed: u64,
+        abandoned: &dyn Fn() -> bool,
+    ) -> Option<RenderedView> {
         let (w, h) = (camera.intrinsics.width as usize, camera.intrinsics.height as usize);
         let n = w * h;
         let thin = lens.map(|(a, f)| ThinLensCamera::new(*camera, a, f));
@@ -102,6 +125,9 @@ impl ViewRenderer<'_> {
                 })
                 .collect();
             for (b, block) in rays.chunks(BLOCK_RAYS).enumerate() {
+                if abandoned() {
+                    return None;
+                }
                 let out = self.render_rays_with(block, &marcher);
                 samples += out.1;
                 for (i, o) in out.0.chunks_exact(RAY_OUTPUTS).enumerate() {
@@ -121,7 +147,7 @@ impl ViewRenderer<'_> {
             })
             .collect();
         let depth = acc.iter().map(|a| if a[3] > 1e-3 { a[4] / a[3] } else { 0.0 }).collect();
-        RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples }
+        Some(RenderedView { colour: Image::from_pixels(w, h, pixels), depth, samples })
     }
 
     /// Composited `r, g, b, opacity, depth` (no background) of each ray, and the sample count.

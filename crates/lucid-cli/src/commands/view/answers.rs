@@ -81,23 +81,24 @@ pub struct ViewedScene<'a> {
 }
 
 impl ViewedScene<'_> {
-    /// The reply to a request that needs the model or the dataset.
-    pub fn answer(&self, route: &Route) -> Reply {
-        match route {
-            Route::Render(view) => self.render(view),
+    /// The reply to a request that needs the model or the dataset; `None` when `abandoned`
+    /// said the client had gone before the render was done.
+    pub fn answer(&self, route: &Route, abandoned: &dyn Fn() -> bool) -> Option<Reply> {
+        Some(match route {
+            Route::Render(view) => self.render(view, abandoned)?,
             Route::Depth { view, x, y } => self.depth_at(view, *x, *y),
             Route::Truth(frame) => match self.truth(*frame) {
                 Ok((_, truth)) => Reply::encoded_png(&truth),
                 Err(reply) => reply,
             },
-            Route::Compare { frame, error } => self.compare(*frame, *error),
+            Route::Compare { frame, error } => self.compare(*frame, *error, abandoned)?,
             Route::Page | Route::Script | Route::Info | Route::Status => Reply::text(500, "answered without the model"),
-        }
+        })
     }
 
-    fn render(&self, view: &ViewRequest) -> Reply {
+    fn render(&self, view: &ViewRequest, abandoned: &dyn Fn() -> bool) -> Option<Reply> {
         let started = Instant::now();
-        let out = self.renderer.render_view(&view.camera, view.lens, view.lens_rays, 0);
+        let out = self.renderer.render_view_unless(&view.camera, view.lens, view.lens_rays, 0, abandoned)?;
         let seconds = started.elapsed().as_secs_f64();
         let image = match view.mode {
             ImageMode::Colour => out.colour,
@@ -107,7 +108,7 @@ impl ViewedScene<'_> {
             FrameFormat::Png => Reply::encoded_png(&image),
             FrameFormat::Rgb => Reply::rgb(&image),
         };
-        reply.with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string())
+        Some(reply.with("X-Render-Seconds", format!("{seconds:.4}")).with("X-Samples", out.samples.to_string()))
     }
 
     /// Renders the one ray through pixel `(x, y)`: a 1×1 camera whose principal point is
@@ -146,21 +147,26 @@ impl ViewedScene<'_> {
         Ok((set, truth))
     }
 
-    fn compare(&self, frame: FrameRef, error: bool) -> Reply {
+    fn compare(&self, frame: FrameRef, error: bool, abandoned: &dyn Fn() -> bool) -> Option<Reply> {
         let (set, truth) = match self.truth(frame) {
             Ok(read) => read,
-            Err(reply) => return reply,
+            Err(reply) => return Some(reply),
         };
         let started = Instant::now();
-        let view = self.renderer.render_view(&set.cameras[0], set.lenses[0], lucid_scene::evaluation::LENS_RAYS, 0);
+        let lens_rays = lucid_scene::evaluation::LENS_RAYS;
+        let view = self.renderer.render_view_unless(&set.cameras[0], set.lenses[0], lens_rays, 0, abandoned)?;
         let seconds = started.elapsed().as_secs_f64();
         let opaque = view.colour.map(|p| [p[0], p[1], p[2], 1.0]);
         let mask = set.mask_weights(0);
         let score = |s: Result<f64, _>| s.map_or("nan".to_string(), |v: f64| format!("{v:.3}"));
-        if error { Reply::png(&error_image(&view.colour, &truth)) } else { Reply::encoded_png(&view.colour) }
-            .with("X-Render-Seconds", format!("{seconds:.4}"))
-            .with("X-PSNR", score(psnr(&opaque, &truth, mask.as_deref())))
-            .with("X-SSIM", score(ssim(&opaque, &truth, mask.as_deref())))
+        let reply =
+            if error { Reply::png(&error_image(&view.colour, &truth)) } else { Reply::encoded_png(&view.colour) };
+        Some(
+            reply
+                .with("X-Render-Seconds", format!("{seconds:.4}"))
+                .with("X-PSNR", score(psnr(&opaque, &truth, mask.as_deref())))
+                .with("X-SSIM", score(ssim(&opaque, &truth, mask.as_deref()))),
+        )
     }
 }
 

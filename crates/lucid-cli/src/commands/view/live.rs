@@ -24,8 +24,9 @@ use lucid_splat::run::SplatRun;
 use serde_json::{Value, json};
 
 use super::answers::ViewedScene;
+use super::queue::Job;
 use super::requests::Route;
-use super::{Job, ViewServer, info};
+use super::{ViewServer, info};
 use crate::loaded_model::ModelRef;
 
 /// The most of the wall time the viewer may take from training for the page's renders, and
@@ -178,7 +179,10 @@ impl<'a> LiveView<'a> {
         }
         let mut changed = step.is_multiple_of(10);
         if self.pending.is_none() {
-            self.pending = self.server.queue.try_recv().ok();
+            self.pending = self.server.queue.try_next();
+        }
+        if self.pending.as_ref().is_some_and(Job::abandoned) {
+            self.pending = None;
         }
         // Before the first probe a render's cost is unknown (infinite); a request that renders
         // nothing (a dataset image) costs nothing.
@@ -214,8 +218,7 @@ impl<'a> LiveView<'a> {
         {
             let began = Instant::now();
             let dataset = Some(self.dataset);
-            let reply = model.with_renderer(|renderer| ViewedScene { renderer, dataset }.answer(&job.route));
-            job.answer(reply);
+            model.with_renderer(|renderer| job.answer_from(&ViewedScene { renderer, dataset }));
             self.viewing.pay(began);
         }
         if !changed {

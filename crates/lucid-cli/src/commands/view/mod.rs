@@ -10,11 +10,12 @@
 
 mod answers;
 pub mod live;
+mod queue;
 mod requests;
 mod server;
 
 use std::net::TcpListener;
-use std::sync::mpsc::{Receiver, Sender, SyncSender, TrySendError, channel, sync_channel};
+use std::sync::mpsc::channel;
 use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
@@ -22,7 +23,9 @@ use lucid_scene::{Dataset, PinholeCamera};
 use serde_json::{Value, json};
 
 use self::answers::{Reply, ViewedScene};
+use self::queue::{Job, RenderQueue};
 use self::requests::Route;
+use self::server::Client;
 use crate::cli::ViewArgs;
 use crate::loaded_model::{LoadedModel, ModelRef};
 
@@ -30,7 +33,8 @@ const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/viewer.js");
 
 /// Renders waiting for a checkpoint's model thread; a request beyond them gets 503 (the page
-/// keeps at most two in flight, so only several pages at once fill it).
+/// keeps at most two in flight, so only several pages at once fill it; requests whose clients
+/// have gone do not count).
 const RENDER_QUEUE: usize = 4;
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
@@ -50,32 +54,18 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     loaded.with_renderer(|renderer| {
         let scene = ViewedScene { renderer, dataset: dataset.as_ref() };
         // Until the server is gone (never, short of the process ending).
-        while let Ok(job) = server.queue.recv() {
-            let reply = scene.answer(&job.route);
-            job.answer(reply);
+        while let Some(job) = server.queue.next() {
+            job.answer_from(&scene);
         }
     });
     Ok(())
-}
-
-/// A request for the thread that owns the model, and where its reply goes.
-pub struct Job {
-    route: Route,
-    reply: Sender<Reply>,
-}
-
-impl Job {
-    /// Sends the reply (the connection may have closed while it waited: nothing to do then).
-    fn answer(self, reply: Reply) {
-        let _ = self.reply.send(reply);
-    }
 }
 
 /// A listening viewer: its URL and the queue of requests that need the model.
 pub struct ViewServer {
     /// `http://host:port/`.
     pub url: String,
-    queue: Receiver<Job>,
+    queue: Arc<RenderQueue>,
 }
 
 impl ViewServer {
@@ -94,18 +84,19 @@ impl ViewServer {
         if !addr.ip().is_loopback() {
             tracing::warn!("serving on {addr}: every machine that reaches this address can view the model");
         }
-        let (jobs, waiting) = sync_channel::<Job>(queue);
+        let queue = Arc::new(RenderQueue::new(queue));
+        let jobs = queue.clone();
         let info = info.to_string();
-        let handler = move |url: &str| handle(url, &info, status.as_deref(), &jobs);
+        let handler = move |url: &str, client: &Client| handle(url, client, &info, status.as_deref(), &jobs);
         server::spawn(listener, server::loopback_hosts(addr), Arc::new(handler))?;
         let shown = if addr.ip().is_unspecified() { format!("127.0.0.1:{}", addr.port()) } else { addr.to_string() };
-        Ok(Self { url: format!("http://{shown}/"), queue: waiting })
+        Ok(Self { url: format!("http://{shown}/"), queue })
     }
 }
 
 /// Answers one URL on a connection thread: pages, the description and the progress at once,
 /// the rest through the model thread's queue.
-fn handle(url: &str, info: &str, status: Option<&Mutex<Value>>, jobs: &SyncSender<Job>) -> Reply {
+fn handle(url: &str, client: &Client, info: &str, status: Option<&Mutex<Value>>, jobs: &RenderQueue) -> Reply {
     let route = match requests::parse(url) {
         Ok(route) => route,
         Err(refusal) => return Reply::text(refusal.status, &refusal.reason),
@@ -126,12 +117,14 @@ fn handle(url: &str, info: &str, status: Option<&Mutex<Value>>, jobs: &SyncSende
         },
         route => {
             let (reply, answer) = channel();
-            match jobs.try_send(Job { route, reply }) {
+            let client = match client.try_clone() {
+                Ok(client) => client,
+                Err(e) => return Reply::text(503, &format!("cannot serve this connection: {e}")),
+            };
+            match jobs.offer(Job::new(route, reply, client)) {
+                // No reply: the client went and the job was dropped, or the model is gone.
                 Ok(()) => answer.recv().unwrap_or_else(|_| Reply::text(503, "the model is no longer served")),
-                Err(TrySendError::Full(_)) => {
-                    Reply::text(503, "the renderer is busy; try again").with("Retry-After", "1".into())
-                }
-                Err(TrySendError::Disconnected(_)) => Reply::text(503, "the model is no longer served"),
+                Err(_) => Reply::text(503, "the renderer is busy; try again").with("Retry-After", "1".into()),
             }
         }
     }

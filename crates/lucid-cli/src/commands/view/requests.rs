@@ -283,6 +283,9 @@ mod tests {
             ("fov=50&w=0&h=10", "'w'"),
             ("fov=500&w=10&h=10", "fov"),
             ("fov=nan&w=10&h=10", "finite"),
+            // Below 180 as a double, 180 once rounded to the camera's f32.
+            ("fov=179.999999&w=10&h=10", "fov"),
+            ("fov=1e-50&w=10&h=10", "fov"),
             ("fov=50&w=10&h=10&aperture=0.1", "focus"),
             ("fov=50&w=10&h=10&aperture=-1", "aperture"),
             ("fov=50&w=10&h=10&lens_rays=100000", "lens_rays"),
