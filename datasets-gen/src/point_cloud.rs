@@ -33,6 +33,29 @@ pub fn write_point_cloud(
     let pixels = k.width as usize * k.height as usize * views.len().max(1);
     // Sample every `stride`-th covered pixel (in a fixed order): deterministic and even.
     let stride = (pixels / target.max(1)).max(1);
+    let mut points = back_project(root, k, views, stride, true)?;
+    // In views of a few pixels nearly every pixel lies on an edge: take them all rather
+    // than write a cloud of no points (which seeds nothing).
+    if points.is_empty() {
+        points = back_project(root, k, views, 1, false)?;
+    }
+    if points.is_empty() {
+        // Nothing was covered: no file, so a trainer starts from random points.
+        return Ok(0);
+    }
+    write_ply(&root.join("points3d.ply"), &points)?;
+    Ok(points.len())
+}
+
+/// Every `stride`-th covered pixel of the views, back-projected; with `skip_edges`, not those
+/// on a depth edge.
+fn back_project(
+    root: &Path,
+    k: &Intrinsics,
+    views: &[(String, Mat4)],
+    stride: usize,
+    skip_edges: bool,
+) -> Result<Vec<ColouredPoint>, GenError> {
     let mut points = Vec::new();
     let mut counter = 0usize;
     for (stem, pose) in views {
@@ -44,7 +67,7 @@ pub fn write_point_cloud(
                 let d = depth.get(x, y);
                 // Fully covered pixels away from depth edges only: pixels that straddle two
                 // surfaces average their depths and would float between them.
-                if d[3] < 0.999 || d[0] <= 0.0 || on_depth_edge(&depth, x, y) {
+                if d[3] < 0.999 || d[0] <= 0.0 || (skip_edges && on_depth_edge(&depth, x, y)) {
                     continue;
                 }
                 counter += 1;
@@ -64,8 +87,7 @@ pub fn write_point_cloud(
             }
         }
     }
-    write_ply(&root.join("points3d.ply"), &points)?;
-    Ok(points.len())
+    Ok(points)
 }
 
 /// Whether the pixel sits on a depth discontinuity: a neighbour is background, or the depth

@@ -55,6 +55,15 @@ impl Run {
         errors[0].to_string()
     }
 
+    /// Panics unless the arguments were refused as they were parsed (exit code 2) with a
+    /// message that contains every needle (the flag's name, its range).
+    pub fn usage_error(self, needles: &[&str]) {
+        assert_eq!(self.code, Some(2), "expected a usage error:\nstdout:\n{}\nstderr:\n{}", self.stdout, self.stderr);
+        for needle in needles {
+            assert!(self.stderr.contains(needle), "the usage error lacks {needle:?}:\n{}", self.stderr);
+        }
+    }
+
     /// Parses stdout as JSON.
     pub fn json(&self) -> serde_json::Value {
         serde_json::from_str(&self.stdout).unwrap_or_else(|e| panic!("stdout is not JSON ({e}):\n{}", self.stdout))
@@ -63,10 +72,22 @@ impl Run {
 
 /// Runs `lucid` with `args` in `dir`.
 pub fn lucid_in(dir: &Path, args: &[&str]) -> Run {
+    lucid_with_env(dir, &[], args)
+}
+
+/// Runs `lucid` in `dir` with `LUCID_MEMORY_LIMIT` set, so that a memory check does not
+/// depend on the machine.
+pub fn lucid_with_memory(dir: &Path, limit: &str, args: &[&str]) -> Run {
+    lucid_with_env(dir, &[("LUCID_MEMORY_LIMIT", limit)], args)
+}
+
+/// Runs `lucid` with `args` in `dir` and the environment variables `vars` set.
+pub fn lucid_with_env(dir: &Path, vars: &[(&str, &str)], args: &[&str]) -> Run {
     let out: Output = Command::new(lucid_bin())
         .args(args)
         .current_dir(dir)
         .env("LUCID_LOG", "warn")
+        .envs(vars.iter().copied())
         .output()
         .expect("lucid binary runs");
     Run {

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use lucid_tests::{files_under, lucid_in, temp_dir};
+use lucid_tests::{files_under, lucid_in, lucid_with_memory, temp_dir};
 
 fn tiny_dataset(d: &Path, name: &str) {
     lucid_in(d, &["gen", "object", "-o", name, "--views", "4,0,1", "--res", "16", "--spp", "2", "-q"]).success();
@@ -37,23 +37,6 @@ fn gen_refuses_a_folder_it_did_not_write() {
     std::fs::create_dir(d.join("empty")).unwrap();
     lucid_in(d, &["gen", "object", "-o", "empty", "--views", "1,0,0", "--res", "8", "--spp", "1", "-q"]).success();
     lucid_in(d, &["gen", "object", "-o", "empty", "--views", "1,0,0", "--res", "8", "--spp", "1", "-q"]).success();
-}
-
-/// Runs `lucid` in `dir` with `LUCID_MEMORY_LIMIT` set, so that the memory check does not
-/// depend on the machine.
-fn lucid_with_memory(dir: &Path, limit: &str, args: &[&str]) -> lucid_tests::Run {
-    let out = std::process::Command::new(lucid_tests::lucid_bin())
-        .args(args)
-        .current_dir(dir)
-        .env("LUCID_LOG", "warn")
-        .env("LUCID_MEMORY_LIMIT", limit)
-        .output()
-        .expect("lucid runs");
-    lucid_tests::Run {
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
 }
 
 /// Settings within their ranges that need more memory than there is are refused before

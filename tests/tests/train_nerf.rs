@@ -137,5 +137,5 @@ fn thin_lens_rendering_from_a_model_matches_the_refocused_truth() {
         assert_eq!(img.dimensions(), (24, 16));
         assert!(d.join(format!("orbit/frame_{k:04}_depth.exr")).is_file());
     }
-    lucid_in(d, &["render", "m/checkpoint.lucid", "-o", "x", "--frames", "0"]).failure(&["--frames"]);
+    lucid_in(d, &["render", "m/checkpoint.lucid", "-o", "x", "--frames", "0"]).usage_error(&["--frames", "1..="]);
 }

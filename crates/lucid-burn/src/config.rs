@@ -55,7 +55,9 @@ pub fn non_negative(key: &str, v: f64) -> Result<(), String> {
 pub fn config_text(file: Option<&std::path::Path>, overrides: &[String]) -> Result<(String, String), String> {
     let (text, origin) = match file {
         Some(path) => {
-            (std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?, path.display().to_string())
+            let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            // A byte-order mark (Windows editors write one) is not part of the TOML.
+            (text.strip_prefix('\u{feff}').unwrap_or(&text).to_string(), path.display().to_string())
         }
         None => (String::new(), "default configuration".to_string()),
     };

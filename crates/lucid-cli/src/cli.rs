@@ -6,6 +6,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 mod generate;
 mod hdr;
+pub mod numbers;
 mod tools;
 mod train;
 pub use generate::*;
@@ -24,6 +25,11 @@ pub struct Cli {
     /// Only errors.
     #[arg(short, long, global = true)]
     pub quiet: bool,
+    /// The layer (or part) of every OpenEXR file read to take the image from, as an error
+    /// lists them (`ViewLayer.Combined`, `AOV`); by default the plain R, G, B channels, else
+    /// a Combined/Image/beauty layer, else the only colour layer.
+    #[arg(long, global = true, value_name = "NAME")]
+    pub exr_layer: Option<String>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -232,10 +238,10 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<lucid_trace::Integrator>,
     /// Image width (overrides the camera's; the horizontal field of view is kept).
-    #[arg(long)]
+    #[arg(long, value_parser = numbers::image_side)]
     pub width: Option<u32>,
     /// Image height (overrides the camera's).
-    #[arg(long)]
+    #[arg(long, value_parser = numbers::image_side)]
     pub height: Option<u32>,
     /// Seed of the random streams (overrides the scene's).
     #[arg(long)]
@@ -257,23 +263,23 @@ pub struct RenderArgs {
     #[arg(long)]
     pub video: Option<PathBuf>,
     /// Checkpoints: frames along the path (the output is a folder of numbered PNGs and depth EXRs).
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = 60, value_parser = numbers::frames)]
     pub frames: usize,
     /// Checkpoints: camera distance from the scene centre, in the dataset's units (default:
     /// the training cameras').
-    #[arg(long)]
+    #[arg(long, value_parser = numbers::positive)]
     pub radius: Option<f32>,
     /// Checkpoints: camera elevation in degrees (the orbit's; the spiral swings around it).
-    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true, value_parser = numbers::elevation)]
     pub elevation: f32,
     /// Checkpoints: thin-lens aperture radius (world units) for depth of field; needs --focus.
-    #[arg(long, requires = "focus")]
+    #[arg(long, requires = "focus", value_parser = numbers::non_negative)]
     pub aperture: Option<f32>,
     /// Checkpoints: distance of the plane of focus along the optical axis.
-    #[arg(long, requires = "aperture")]
+    #[arg(long, requires = "aperture", value_parser = numbers::positive)]
     pub focus: Option<f32>,
     /// Checkpoints: rays per pixel over the lens.
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = 32, value_parser = numbers::lens_rays)]
     pub lens_rays: usize,
     /// How a NeRF checkpoint's rays are cast.
     #[command(flatten)]
@@ -354,7 +360,7 @@ pub struct ConvertArgs {
     /// Output image; the format follows the extension.
     pub output: PathBuf,
     /// Exposure change in stops (multiplies linear radiance by 2^EV).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = numbers::stops)]
     pub exposure: f32,
     /// Tone curve applied when the output is LDR (.png, .jpg).
     #[arg(long, value_enum, default_value_t = ToneCurveArg::Clip)]

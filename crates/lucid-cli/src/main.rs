@@ -21,12 +21,18 @@ use std::process::ExitCode;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> ExitCode {
-    let matches = <cli::Cli as clap::CommandFactory>::command().get_matches();
+    let matches = negative_values(<cli::Cli as clap::CommandFactory>::command()).get_matches();
     let args = match <cli::Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
         Ok(args) => args,
         Err(e) => e.exit(),
     };
     init_logging(args.verbose, args.quiet);
+    if let Some(layer) = &args.exr_layer
+        && let Err(e) = lucid_image::io::exr_layers::set_layer(layer)
+    {
+        eprintln!("error: --exr-layer: {e}");
+        return ExitCode::FAILURE;
+    }
     match commands::run(args.command, &matches) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
@@ -34,6 +40,16 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Lets every option that takes a value take one that starts with a minus sign (`--focus -1`,
+/// `--elevation -10`): no option is spelled as a number, so nothing becomes ambiguous, and the
+/// option's own range check then says what it allows (clap would call `-1` an unknown
+/// argument and suggest `-- -1`, which passes nothing to the option).
+fn negative_values(command: clap::Command) -> clap::Command {
+    command
+        .mut_args(|arg| if arg.get_action().takes_values() { arg.allow_negative_numbers(true) } else { arg })
+        .mut_subcommands(negative_values)
 }
 
 /// The error's context chain on one line ("reading x.json: x.json: frames[2]…"), leaving out

@@ -94,6 +94,17 @@ pub fn print_summary(summary: &RunSummary, what: &str, checkpoint: &Path) {
     }
 }
 
+/// One fingerprint of several datasets' training data, in order.
+pub fn fingerprint_of(roots: &[std::path::PathBuf]) -> anyhow::Result<String> {
+    let prints = roots
+        .iter()
+        .map(|root| {
+            Ok(Dataset::open(root).with_context(|| format!("reading dataset {}", root.display()))?.fingerprint())
+        })
+        .collect::<anyhow::Result<Vec<String>>>()?;
+    Ok(prints.join("-"))
+}
+
 /// The dataset of a training command, with at least one training frame.
 pub fn open_dataset(root: &Path, options: &lucid_scene::dataset::OpenOptions) -> anyhow::Result<Dataset> {
     let dataset = Dataset::open_with(root, options).with_context(|| format!("reading dataset {}", root.display()))?;

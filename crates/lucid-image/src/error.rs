@@ -45,6 +45,15 @@ pub enum ImageError {
         /// What went wrong.
         reason: String,
     },
+    /// The output folder cannot be written (another's files, an input inside, in use).
+    #[error(transparent)]
+    Folder(Box<crate::owned_folder::FolderError>),
+}
+
+impl From<crate::owned_folder::FolderError> for ImageError {
+    fn from(e: crate::owned_folder::FolderError) -> Self {
+        Self::Folder(Box::new(e))
+    }
 }
 
 impl ImageError {

@@ -28,5 +28,5 @@ pub use buffer::Image;
 pub use error::ImageError;
 pub use io::{
     ExrPrecision, ImageFormat, PngBitDepth, WriteOptions, encode_png, encoded_png, encoded_rgb8, image_dimensions,
-    read_image, write_atomically, write_image, write_image_with,
+    read_depth_image, read_finite_image, read_image, write_atomically, write_image, write_image_with,
 };

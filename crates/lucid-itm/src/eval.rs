@@ -194,7 +194,7 @@ pub fn evaluate_into(
 ) -> Result<ItmReport, lucid_image::ImageError> {
     use lucid_image::write_image;
     let report = evaluate(net, images, device, boost_stops);
-    std::fs::create_dir_all(out).map_err(|e| lucid_image::ImageError::io(out, e))?;
+    let folder = lucid_image::owned_folder::OwnedFolder::claim(out, "the evaluation", &[])?;
     for (k, img) in images.iter().enumerate() {
         let (w, h) = (img.width, img.height);
         write_image(out.join(format!("{k:03}_network.exr")), &planar_image(&predict(net, img, device), w, h))?;
@@ -204,5 +204,6 @@ pub fn evaluate_into(
     }
     let json = serde_json::to_string_pretty(&report).expect("serialises");
     lucid_image::output::write_text(&out.join("metrics.json"), &json)?;
+    folder.finish()?;
     Ok(report)
 }

@@ -249,7 +249,8 @@ pub fn evaluate_into(
     out: &std::path::Path,
     device: &Device,
 ) -> Result<RelightReport, RelightError> {
-    std::fs::create_dir_all(out).map_err(|e| lucid_image::ImageError::io(out, e))?;
+    let folder = lucid_image::owned_folder::OwnedFolder::claim(out, "the evaluation", &[])
+        .map_err(lucid_image::ImageError::from)?;
     let model = RelightModel {
         config: &trainer.config,
         geometry: &trainer.geometry,
@@ -265,5 +266,6 @@ pub fn evaluate_into(
     })?;
     let text = serde_json::to_string_pretty(&report).expect("serialises");
     lucid_image::output::write_text(&out.join("metrics.json"), &text)?;
+    folder.finish().map_err(lucid_image::ImageError::from)?;
     Ok(report)
 }

@@ -54,7 +54,7 @@ impl CameraPath {
 /// Reads a `camera_path.json`.
 pub fn read_camera_path(path: &Path) -> Result<CameraPath, CameraPathError> {
     let fail = |reason: String| CameraPathError { path: path.to_path_buf(), reason };
-    let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    let text = crate::text_file::read_text(path).map_err(|e| fail(format!("cannot read: {e}")))?;
     let root: Value = serde_json::from_str(&text).map_err(|e| fail(format!("malformed JSON: {e}")))?;
     let size = |key: &str| -> Result<u32, CameraPathError> {
         root.get(key)

@@ -6,6 +6,7 @@
 use std::path::Path;
 
 use lucid_image::color::srgb_decode;
+use lucid_image::owned_folder::OwnedFolder;
 use lucid_image::{Image, ImageError, WriteOptions, write_image, write_image_with};
 use serde_json::json;
 
@@ -42,15 +43,16 @@ pub fn evaluate_split(
     if pinhole {
         set.lenses.iter_mut().for_each(|l| *l = None);
     }
-    std::fs::create_dir_all(out).map_err(|e| ImageError::io(out, e))?;
+    // Never over the dataset's own images: the folder must be new, empty or an earlier output.
+    let folder = OwnedFolder::claim(out, "the evaluation", &[&dataset.root])?;
+    let stems = unique_stems(frames);
     let mut failure = None;
     let mut done = 0;
     let (scores, summary) = evaluate(renderer, &set, None, |i, view, truth, _| {
         done += 1;
         progress(done, frames.len());
         if failure.is_none() {
-            let stem = frames[i].image_path.file_stem().and_then(|s| s.to_str()).unwrap_or("view");
-            failure = write_view(out, stem, view, truth, dataset).err();
+            failure = write_view(out, &stems[i], view, truth, dataset).err();
         }
     });
     if let Some(e) = failure {
@@ -66,6 +68,7 @@ pub fn evaluate_split(
     });
     let path = out.join("metrics.json");
     lucid_image::output::write_text(&path, &serde_json::to_string_pretty(&report).expect("serialises"))?;
+    folder.finish()?;
     let mut lines: Vec<String> = frames
         .iter()
         .zip(&scores)
@@ -82,6 +85,34 @@ pub fn evaluate_split(
         out.display()
     ));
     Ok(SplitEvaluation { report, lines })
+}
+
+/// The name each view's files are written under: its image's stem, or, where two images of
+/// the split share one (the same name in two folders), its path with `_` for `/`.
+fn unique_stems(frames: &[crate::dataset::Frame]) -> Vec<String> {
+    let stem =
+        |f: &crate::dataset::Frame| f.image_path.file_stem().and_then(|s| s.to_str()).unwrap_or("view").to_string();
+    let stems: Vec<String> = frames.iter().map(stem).collect();
+    let mut taken = std::collections::HashSet::new();
+    stems
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let shared = stems.iter().filter(|t| *t == s).count() > 1;
+            let mut name = if shared {
+                let path = frames[i].file_path.trim_start_matches("./");
+                let path = Path::new(path).with_extension("");
+                path.to_string_lossy().replace(['/', '\\'], "_")
+            } else {
+                s.clone()
+            };
+            if !taken.insert(name.clone()) {
+                name = format!("{name}_{i}");
+                taken.insert(name.clone());
+            }
+            name
+        })
+        .collect()
 }
 
 fn write_view(out: &Path, stem: &str, view: &RenderedView, truth: &Image, dataset: &Dataset) -> Result<(), ImageError> {

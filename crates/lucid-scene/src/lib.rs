@@ -22,6 +22,7 @@ pub mod prefetch;
 pub mod ray;
 pub mod sampling;
 pub mod simd;
+pub mod text_file;
 pub mod undistort;
 
 pub use camera::{Camera, Intrinsics, PinholeCamera, ThinLensCamera, look_at};

@@ -1,81 +1,38 @@
-//! Distances to nearest neighbours for the initial splat sizes.
-//!
-//! Hand-written because it is one query shape on a few hundred thousand points at most, once
-//! per training run: a uniform grid (counting sort into cells) searched in growing shells, in
-//! parallel over points, is short and needs no further dependency.
+//! Distances to nearest neighbours for the initial splat sizes, by a k-d tree (kiddo): its
+//! cost grows as n log n whatever the points' spread, where a uniform grid turns quadratic
+//! once a few points lie far from the rest (an SfM outlier, a capture's background shell) and
+//! squeeze the others into a handful of cells.
 
-use glam::{IVec3, Vec3};
+use std::num::NonZero;
+
+use glam::Vec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 /// For each point, the root mean square of its distances to its `k` nearest other points
 /// (the 3DGS initial scale); a single point gets 1% of nothing, i.e. a tiny default.
 pub fn mean_neighbour_distance(points: &[Vec3], k: usize) -> Vec<f32> {
     let n = points.len();
-    if n < 2 {
+    if n < 2 || k == 0 {
         return vec![1e-2; n];
     }
-    let (lo, hi) =
-        points.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), p| (a.min(*p), b.max(*p)));
-    let extent = (hi - lo).max(Vec3::splat(1e-6));
-    let cell = (extent.x * extent.y * extent.z / n as f32).cbrt().max(extent.max_element() / 256.0);
-    let dims = ((extent / cell).ceil().as_ivec3()).max(IVec3::ONE);
-    let cell_of = |p: Vec3| ((p - lo) / cell).floor().as_ivec3().clamp(IVec3::ZERO, dims - 1);
-    let index = |c: IVec3| (c.z as usize * dims.y as usize + c.y as usize) * dims.x as usize + c.x as usize;
-    let cells = dims.x as usize * dims.y as usize * dims.z as usize;
-    let mut offsets = vec![0usize; cells + 1];
-    for p in points {
-        offsets[index(cell_of(*p)) + 1] += 1;
-    }
-    for i in 1..offsets.len() {
-        offsets[i] += offsets[i - 1];
-    }
-    let mut cursor = offsets.clone();
-    let mut sorted = vec![0u32; n];
-    for (i, p) in points.iter().enumerate() {
-        let c = index(cell_of(*p));
-        sorted[cursor[c]] = i as u32;
-        cursor[c] += 1;
-    }
     let k = k.min(n - 1);
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let p = points[i];
-            let home = cell_of(p);
-            let mut best: Vec<f32> = Vec::with_capacity(k + 1);
-            let max_ring = dims.max_element();
-            for ring in 0..=max_ring {
-                let r = IVec3::splat(ring);
-                let (a, b) = ((home - r).max(IVec3::ZERO), (home + r).min(dims - 1));
-                for z in a.z..=b.z {
-                    for y in a.y..=b.y {
-                        for x in a.x..=b.x {
-                            let c = IVec3::new(x, y, z);
-                            if (c - home).abs().max_element() != ring {
-                                continue;
-                            }
-                            let ci = index(c);
-                            for &j in &sorted[offsets[ci]..offsets[ci + 1]] {
-                                if j as usize == i {
-                                    continue;
-                                }
-                                let d2 = p.distance_squared(points[j as usize]);
-                                if best.len() < k || d2 < best[k - 1] {
-                                    let at = best.partition_point(|&v| v <= d2);
-                                    best.insert(at, d2);
-                                    best.truncate(k);
-                                }
-                            }
-                        }
-                    }
-                }
-                // Everything within `ring` cells of the point's own cell has been seen.
-                let covered = ring as f32 * cell;
-                if best.len() == k && best[k - 1] <= covered * covered {
-                    break;
-                }
-            }
-            (best.iter().sum::<f32>() / best.len().max(1) as f32).sqrt().max(1e-7)
+    let coordinates: Vec<[f32; 3]> = points.iter().map(|p| p.to_array()).collect();
+    let Ok(tree) = ImmutableKdTree::<f32, 3>::new_from_slice(&coordinates) else {
+        // Only a tree of more than u32::MAX points fails to build.
+        return vec![1e-2; n];
+    };
+    let wanted = NonZero::new(k + 1).expect("k + 1 > 0");
+    coordinates
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let found = tree.query(p).nearest_n::<SquaredEuclidean<f32>>(wanted).execute();
+            // The point finds itself (or a copy of itself, equally at 0): leave out one match
+            // at its own index if present, else the last.
+            let own = found.iter().position(|f| f.item as usize == i).unwrap_or(found.len().saturating_sub(1));
+            let sum: f32 = found.iter().enumerate().filter(|(j, _)| *j != own).map(|(_, f)| f.distance).sum();
+            (sum / k as f32).sqrt().max(1e-7)
         })
         .collect()
 }
@@ -83,6 +40,36 @@ pub fn mean_neighbour_distance(points: &[Vec3], k: usize) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Brute force, for the tests.
+    fn brute(pts: &[Vec3], k: usize) -> Vec<f32> {
+        (0..pts.len())
+            .map(|i| {
+                let mut all: Vec<f32> =
+                    pts.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, q)| pts[i].distance_squared(*q)).collect();
+                all.sort_by(f32::total_cmp);
+                (all[..k].iter().sum::<f32>() / k as f32).sqrt()
+            })
+            .collect()
+    }
+
+    /// Points far from the rest (an outlier, a shell around the scene) get and give their
+    /// true neighbours, as brute force finds them.
+    #[test]
+    fn far_points_are_neighbours_as_brute_force_finds_them() {
+        let mut rng = lucid_scene::sampling::Rng::new(5, 6);
+        let mut pts: Vec<Vec3> = (0..2000).map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform())).collect();
+        pts.push(Vec3::new(1e6, -3e5, 2e4));
+        pts.push(Vec3::new(1e6 + 1.0, -3e5, 2e4));
+        pts.extend((0..100).map(|k| {
+            let a = k as f32 * 0.7;
+            Vec3::new(a.cos(), a.sin(), 0.1 * k as f32) * 500.0
+        }));
+        let d = mean_neighbour_distance(&pts, 3);
+        for (i, (got, want)) in d.iter().zip(brute(&pts, 3)).enumerate() {
+            assert!((got - want).abs() <= 1e-5 * want.max(1.0), "point {i}: {got} vs {want}");
+        }
+    }
 
     /// On a regular lattice every interior point's three nearest neighbours are at the
     /// spacing; a brute-force search agrees on random points.

@@ -54,6 +54,10 @@ fn blur(src: &[f32], w: usize, h: usize, window: &[f32; WINDOW]) -> Vec<f32> {
             // dst[x] += t·row[x + k − r] wherever both exist.
             let (d0, s0) = if k < r { (r - k, 0) } else { (0, k - r) };
             let len = w.saturating_sub(d0.max(s0));
+            // In a row narrower than the window's radius a tap may reach no pixel at all.
+            if len == 0 {
+                continue;
+            }
             for (d, v) in dst[d0..d0 + len].iter_mut().zip(&row[s0..s0 + len]) {
                 *d += t * v;
             }
@@ -220,7 +224,13 @@ mod tests {
     /// mask, for several weights.
     #[test]
     fn loss_and_gradient_are_burns() {
-        let (w, h) = (23, 17);
+        // Images narrower than the window's radius too (a 4-pixel render once read past a row).
+        for (w, h) in [(23, 17), (4, 4), (3, 9)] {
+            loss_and_gradient_are_burns_at(w, h);
+        }
+    }
+
+    fn loss_and_gradient_are_burns_at(w: usize, h: usize) {
         let (image, target) = pair(w, h);
         let mask: Vec<f32> = (0..w * h).map(|i| if i % 5 == 0 { 0.0 } else { 1.0 }).collect();
         let device = lucid_burn::backend::training_device();

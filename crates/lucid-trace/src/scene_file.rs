@@ -334,8 +334,8 @@ pub struct LoadedScene {
 
 /// Reads and validates a scene file.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, SceneFileError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
+    let text = lucid_scene::text_file::read_text(path)
+        .map_err(|source| SceneFileError::Io { path: path.to_path_buf(), source })?;
     parse_scene(&text, path)
 }
 

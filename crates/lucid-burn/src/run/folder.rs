@@ -48,6 +48,9 @@ pub struct Manifest {
     pub kind: String,
     /// The run's budget.
     pub budget: Budget,
+    /// The fingerprint of the training data (absent in folders written before it was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dataset: Option<String>,
 }
 
 /// An output folder held by this process.
@@ -56,6 +59,8 @@ pub struct RunFolder {
     dir: PathBuf,
     previous: Option<Manifest>,
     lock: Option<OutputLock>,
+    /// The fingerprint of the data this run trains on.
+    dataset: Option<String>,
     /// This process made the folder: if the run fails before writing anything into it (a
     /// bad configuration, an unreadable image), it is removed again rather than left empty.
     created: bool,
@@ -107,11 +112,15 @@ impl RunFolder {
                         found.join(", ")
                     )));
                 }
+                // Evaluation folders lose only the files their record lists: a user's notes stay.
                 for name in &found {
                     let path = dir.join(name);
-                    let removed =
-                        if path.is_dir() { std::fs::remove_dir_all(&path) } else { std::fs::remove_file(&path) };
-                    removed.map_err(|source| RunError::Io { path, source })?;
+                    if path.is_dir() {
+                        lucid_image::owned_folder::remove_written(&path, "--overwrite")
+                            .map_err(|e| RunError::Image(Box::new(e.into())))?;
+                    } else {
+                        std::fs::remove_file(&path).map_err(|source| RunError::Io { path, source })?;
+                    }
                 }
             }
             Start::Resume => match held_kind {
@@ -131,7 +140,7 @@ impl RunFolder {
             },
         }
         let previous = if start == Start::Resume { previous } else { None };
-        Ok(Self { dir: dir.to_path_buf(), previous, lock: Some(lock), created })
+        Ok(Self { dir: dir.to_path_buf(), previous, lock: Some(lock), dataset: None, created })
     }
 
     /// The folder.
@@ -154,9 +163,28 @@ impl RunFolder {
         self.previous.as_ref().map(|m| m.budget)
     }
 
-    /// Records the run's kind and budget in `run.json`.
+    /// Names the data the run trains on (a fingerprint); a resumed run whose folder recorded
+    /// other data is refused.
+    pub fn check_dataset(&mut self, fingerprint: String) -> Result<(), RunError> {
+        if let Some(recorded) = self.previous.as_ref().and_then(|m| m.dataset.as_deref())
+            && recorded != fingerprint
+        {
+            return Err(RunError::Folder {
+                dir: self.dir.clone(),
+                reason: format!(
+                    "the run trained on other data (fingerprint {recorded}; this dataset's is {fingerprint}): resume it \
+                     on the dataset it began with, or start a new run"
+                ),
+            });
+        }
+        self.dataset = Some(fingerprint);
+        Ok(())
+    }
+
+    /// Records the run's kind, budget and data in `run.json`.
     pub fn write_manifest(&self, kind: &str, budget: Budget) -> Result<(), RunError> {
-        let text = serde_json::to_string_pretty(&Manifest { kind: kind.into(), budget }).expect("serialises");
+        let manifest = Manifest { kind: kind.into(), budget, dataset: self.dataset.clone() };
+        let text = serde_json::to_string_pretty(&manifest).expect("serialises");
         lucid_image::output::write_text(&self.path(MANIFEST), &text).map_err(|e| RunError::Image(Box::new(e)))
     }
 }
@@ -208,10 +236,38 @@ mod tests {
 
         let same = RunFolder::open(dir.path(), "splat", Start::Resume).unwrap();
         assert_eq!(same.previous_budget(), Some(Budget::Steps { steps: 10 }));
+        // Its evaluation, and a note the user added to it.
+        let eval = lucid_image::owned_folder::OwnedFolder::claim(&same.path("eval_test"), "eval", &[]).unwrap();
+        std::fs::write(eval.path("metrics.json"), b"{}").unwrap();
+        drop(eval);
+        std::fs::write(dir.path().join("eval_test/notes.txt"), b"also mine").unwrap();
         drop(same);
         drop(RunFolder::open(dir.path(), "nerf", Start::Overwrite).unwrap());
         // The run's files are gone; the user's are not.
         assert_eq!(snapshot(dir.path()), vec![("notes.txt".to_string(), b"mine".to_vec())]);
+        assert_eq!(std::fs::read(dir.path().join("eval_test/notes.txt")).unwrap(), b"also mine");
+        assert!(!dir.path().join("eval_test/metrics.json").exists());
+    }
+
+    #[test]
+    fn a_run_resumes_only_on_the_data_it_began_with() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut run = RunFolder::open(dir.path(), "nerf", Start::New).unwrap();
+        run.check_dataset("aaaa".into()).unwrap();
+        run.write_manifest("nerf", Budget::Steps { steps: 5 }).unwrap();
+        drop(run);
+        let mut other = RunFolder::open(dir.path(), "nerf", Start::Resume).unwrap();
+        let refused = other.check_dataset("bbbb".into()).unwrap_err().to_string();
+        assert!(refused.contains("other data") && refused.contains("aaaa") && refused.contains("bbbb"), "{refused}");
+        drop(other);
+        let mut same = RunFolder::open(dir.path(), "nerf", Start::Resume).unwrap();
+        same.check_dataset("aaaa".into()).unwrap();
+        // A run.json from before fingerprints were kept resumes on any data.
+        std::fs::write(dir.path().join(MANIFEST), r#"{"kind": "nerf", "budget": {"mode": "steps", "steps": 5}}"#)
+            .unwrap();
+        drop(same);
+        let mut old = RunFolder::open(dir.path(), "nerf", Start::Resume).unwrap();
+        old.check_dataset("cccc".into()).unwrap();
     }
 
     #[test]

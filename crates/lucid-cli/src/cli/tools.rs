@@ -257,7 +257,7 @@ pub enum EnvmapCommand {
         #[arg(short, long)]
         output: PathBuf,
         /// Width of the map (height is half).
-        #[arg(long, default_value_t = 512)]
+        #[arg(long, default_value_t = 512, value_parser = super::numbers::image_side_usize)]
         width: usize,
     },
     /// A mirror-ball image of a lat-long map.
@@ -268,7 +268,7 @@ pub enum EnvmapCommand {
         #[arg(short, long)]
         output: PathBuf,
         /// Side of the square image.
-        #[arg(long, default_value_t = 512)]
+        #[arg(long, default_value_t = 512, value_parser = super::numbers::image_side_usize)]
         size: usize,
     },
     /// The 9 spherical-harmonic coefficients of a map, and optionally its irradiance map.

@@ -139,9 +139,10 @@ pub struct RunArgs {
     /// budget, and `--resume` continues (training in stages).
     #[arg(long)]
     pub until: Option<usize>,
-    /// Continue the run in OUTPUT from its checkpoint (its configuration and budget win;
-    /// --steps or --time-limit set a new budget).
-    #[arg(long, conflicts_with = "overwrite")]
+    /// Continue the run in OUTPUT from its checkpoint, on the dataset it trained on (its
+    /// configuration and budget win; --steps or --time-limit set a new budget; --config,
+    /// --set and --seed cannot change a run that has begun).
+    #[arg(long, conflicts_with_all = ["overwrite", "config", "overrides", "seed"])]
     pub resume: bool,
     /// Replace the run in OUTPUT: its files (checkpoint, config, log, run.json, splats.ply,
     /// eval_*/) are removed first. Without it, a folder holding a run is refused.
@@ -171,7 +172,7 @@ pub struct EvalArgs {
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Evaluate only the first N views.
-    #[arg(long)]
+    #[arg(long, value_parser = super::numbers::at_least_one)]
     pub limit: Option<usize>,
     /// Render every view with a pinhole, even where the dataset gives a thin lens
     /// (`aperture_radius`, `focus_distance`) for it.

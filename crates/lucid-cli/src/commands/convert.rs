@@ -45,6 +45,18 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     } else {
         curve.map_image(&image, args.exposure)
     };
+    // A finite input can still overflow (a bright pixel pushed by many stops, or a half EXR).
+    let overflow = converted.non_finite_count() - bad.min(converted.non_finite_count());
+    let half_max = f32::from(half::f16::MAX);
+    let beyond_half = args.half && converted.pixels().iter().flatten().any(|v| v.is_finite() && v.abs() > half_max);
+    if overflow > 0 || beyond_half {
+        anyhow::bail!(
+            "{}: --exposure {} takes values past what {} can hold; nothing written",
+            args.input.display(),
+            args.exposure,
+            if beyond_half { "a half-float EXR" } else { "a 32-bit float" }
+        );
+    }
     let options = WriteOptions {
         exr_precision: if args.half { ExrPrecision::Half } else { ExrPrecision::Float },
         png_bit_depth: if args.png16 { PngBitDepth::Sixteen } else { PngBitDepth::Eight },

@@ -2,7 +2,7 @@
 
 use anyhow::{Context, bail};
 use glam::Vec3;
-use lucid_image::{read_image, write_image};
+use lucid_image::{read_finite_image, read_image, write_image};
 use lucid_relight::envmap::{latlong_to_mirror_ball, mirror_ball_to_latlong};
 use lucid_relight::median_cut::median_cut;
 use lucid_relight::sh::{irradiance_map, project};
@@ -38,13 +38,16 @@ pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
             if ball.width() != ball.height() {
                 bail!("{}: a mirror-ball image is square, this is {}x{}", input.display(), ball.width(), ball.height());
             }
-            write_image(&output, &mirror_ball_to_latlong(&ball, width.max(2)))?;
+            let width = width.max(2);
+            crate::commands::check_image_memory(width as u32, width as u32 / 2, 32.0, "--width")?;
+            write_image(&output, &mirror_ball_to_latlong(&ball, width))?;
         }
         EnvmapCommand::ToMirrorBall { input, output, size } => {
-            write_image(&output, &latlong_to_mirror_ball(&read_image(&input)?, size.max(1)))?;
+            crate::commands::check_image_memory(size as u32, size as u32, 32.0, "--size")?;
+            write_image(&output, &latlong_to_mirror_ball(&read_finite_image(&input)?, size))?;
         }
         EnvmapCommand::Sh { input, irradiance, json } => {
-            let map = read_image(&input)?;
+            let map = read_finite_image(&input)?;
             let coeffs = project(&map);
             if let Some(out) = irradiance {
                 write_image(&out, &irradiance_map(&coeffs, map.width(), map.height()))?;
@@ -63,7 +66,7 @@ pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
             if lights == 0 {
                 bail!("--lights must be at least 1");
             }
-            let cut = median_cut(&read_image(&input)?, lights);
+            let cut = median_cut(&read_finite_image(&input)?, lights);
             if json {
                 let v: Vec<_> =
                     cut.iter().map(|l| json!({ "direction": l.direction.to_array(), "energy": l.energy })).collect();
@@ -121,6 +124,9 @@ pub fn run(args: EnvmapArgs) -> anyhow::Result<()> {
         }
         EnvmapCommand::Voronoi { directions, json } => {
             let dirs = parse_directions(&directions)?;
+            if dirs.is_empty() {
+                bail!("no directions given: list them as x,y,z;x,y,z;...");
+            }
             let angles = voronoi_solid_angles(&dirs)?;
             let total: f64 = angles.iter().sum();
             if json {

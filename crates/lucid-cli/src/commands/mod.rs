@@ -128,6 +128,15 @@ pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
 }
 
 /// Writes a text file atomically (temporary name, then rename); errors name the file.
+/// Refuses an image of `width`×`height` pixels whose buffers (`bytes_per_pixel` in all) would
+/// not fit in the memory this process may use; `what` names the flags that set the size.
+pub fn check_image_memory(width: u32, height: u32, bytes_per_pixel: f64, what: &str) -> anyhow::Result<()> {
+    let mut estimate = lucid_burn::memory::MemoryEstimate::new();
+    estimate.add(format!("a {width}x{height} image ({what})"), f64::from(width) * f64::from(height) * bytes_per_pixel);
+    let available = lucid_burn::memory::available().map_err(anyhow::Error::msg)?;
+    estimate.check(available).map_err(anyhow::Error::msg)
+}
+
 pub fn write_text(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
     lucid_image::output::write_text(path, text).with_context(|| path.display().to_string())
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::bail;
 use lucid_image::metrics::{MetricSpace, prepare_for_metrics, psnr};
-use lucid_image::{Image, read_image, write_image};
+use lucid_image::{Image, write_image};
 use lucid_relight::transport::{Weighting, light_weights, load_view_with, relight};
 use serde_json::json;
 
@@ -47,7 +47,7 @@ pub fn run(args: RelightArgs) -> anyhow::Result<()> {
     }
     let mut results = Vec::new();
     for env_path in &envs {
-        let env = read_image(env_path)?;
+        let env = lucid_image::read_finite_image(env_path)?;
         let l = light_weights(&view.directions, view.irradiance, &env, weighting)?;
         let relit = relight(&view.images, &l);
         if let Some(out) = &args.output {

@@ -33,7 +33,8 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
         let pixels = train.iter().map(|i| i.width * i.height).sum();
         training::check_memory(&config.memory_estimate(pixels))?;
     }
-    let folder = RunFolder::open(&args.output, ITM_KIND, start)?;
+    let mut folder = RunFolder::open(&args.output, ITM_KIND, start)?;
+    folder.check_dataset(training::fingerprint_of(&args.datasets)?)?;
     let device = lucid_burn::backend::training_device();
     let (trainer, elapsed) = match config {
         None => {

@@ -33,7 +33,8 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     if let Some(config) = &config {
         training::check_memory(&config.memory_estimate(training::training_pixels(&dataset).0))?;
     }
-    let folder = RunFolder::open(&args.output, NERF_KIND, start)?;
+    let mut folder = RunFolder::open(&args.output, NERF_KIND, start)?;
+    folder.check_dataset(dataset.fingerprint())?;
     let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     let device = lucid_nerf::backend::training_device();
     let (trainer, elapsed) = match config {
@@ -48,6 +49,8 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     };
     let t = trainer.config.train;
     let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
+    // The viewer's port first: a port in use fails before the run writes anything.
+    let mut live = live::for_run(args.view, &args.output, ModelRef::Nerf(&trainer), &dataset)?;
     folder.write_manifest(NERF_KIND, budget)?;
     training::write_config(&folder, &trainer.config)?;
     let (lo, hi) = trainer.grid.bounds();
@@ -62,7 +65,6 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     );
     let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "nerf")?;
     let mut model = NerfRun { trainer, data: &data, held_out: Some(&dataset) };
-    let mut live = live::for_run(args.view, &args.output, ModelRef::Nerf(&model.trainer), &dataset)?;
     let summary = run(&mut model, &options, live::observer::<NerfRun>(&mut live, &mut NoObserver))?;
     training::print_summary(&summary, "a NeRF", &folder.checkpoint());
     Ok(())

@@ -108,7 +108,8 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         let olat_values: usize = data.views.iter().map(|v| v.lights.iter().map(|l| l.rgb.len()).sum::<usize>()).sum();
         training::check_memory(&config.memory_estimate(pixels, largest, olat_values))?;
     }
-    let folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
+    let mut folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
+    folder.check_dataset(dataset.fingerprint())?;
     let device = lucid_burn::backend::training_device();
     let head_checkpoint = folder.checkpoint();
     let (trainer, lights, elapsed, budget) = if args.run.resume && head_checkpoint.is_file() {

@@ -33,7 +33,8 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
         let (pixels, largest) = training::training_pixels(&dataset);
         training::check_memory(&config.memory_estimate(config.init.random_points, pixels, largest))?;
     }
-    let folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
+    let mut folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
+    folder.check_dataset(dataset.fingerprint())?;
     let loaded = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     // The rasterizer projects through pinholes: distorted captures train on undistorted crops.
     let data = loaded.undistorted();
@@ -55,6 +56,8 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     };
     let t = trainer.config.train;
     let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
+    // The viewer's port first: a port in use fails before the run writes anything.
+    let mut live = live::for_run(args.view, &args.output, ModelRef::Splat(&trainer), &dataset)?;
     folder.write_manifest(SPLAT_KIND, budget)?;
     training::write_config(&folder, &trainer.config)?;
     tracing::info!(
@@ -68,7 +71,6 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "splat")?;
     let export = Some(folder.path("splats.ply"));
     let mut model = SplatRun { trainer, data: &data, held_out: Some(&dataset), export };
-    let mut live = live::for_run(args.view, &args.output, ModelRef::Splat(&model.trainer), &dataset)?;
     let summary = run(&mut model, &options, live::observer::<SplatRun>(&mut live, &mut NoObserver))?;
     training::print_summary(&summary, "3D Gaussian splats", &folder.checkpoint());
     Ok(())

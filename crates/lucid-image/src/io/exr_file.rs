@@ -1,8 +1,8 @@
 //! OpenEXR through the `exr` crate.
 //!
-//! Reading takes the first layer with all its channels, so RGB, RGBA and single-channel
-//! files (depth `Z`, luminance `Y`, …) all load; channel names may carry a layer prefix
-//! (`ViewLayer.Combined.R`). Half, float and uint samples are converted to `f32`.
+//! Reading takes the layer that is the image (see [`super::exr_layers`]), so RGB, RGBA,
+//! single-channel (depth `Z`, luminance `Y`, …), multi-layer and multi-part files all load
+//! their picture. Half, float and uint samples are converted to `f32`.
 
 use std::fs::File;
 use std::io::BufWriter;
@@ -11,48 +11,42 @@ use std::path::Path;
 use exr::prelude::*;
 use std::result::Result;
 
+use super::exr_layers::{Want, choose};
 use super::{ExrPrecision, WriteOptions};
 use crate::{Image as RgbaImage, ImageError};
 
 const FORMAT: &str = "OpenEXR";
 
 pub(super) fn read(path: &Path) -> Result<RgbaImage, ImageError> {
-    let image = read_first_flat_layer_from_file(path).map_err(|e| exr_error(path, e))?;
-    let layer = &image.layer_data;
-    let (width, height) = (layer.size.width(), layer.size.height());
-    let channels = &layer.channel_data.list;
+    read_wanted(path, Want::Colour)
+}
 
-    // The last dot-separated component is the channel proper; the rest is a layer path.
-    let find = |want: &str| {
-        channels.iter().position(|c| {
-            let name = c.name.to_string();
-            name.rsplit('.').next().is_some_and(|short| short.eq_ignore_ascii_case(want))
+/// The file's depth buffer (see [`super::exr_layers`]).
+pub(super) fn read_depth(path: &Path) -> Result<RgbaImage, ImageError> {
+    read_wanted(path, Want::Depth)
+}
+
+fn read_wanted(path: &Path, want: Want) -> Result<RgbaImage, ImageError> {
+    let image = read_all_flat_layers_from_file(path).map_err(|e| exr_error(path, e))?;
+    let layers = &image.layer_data;
+    let parts: Vec<(Option<String>, Vec<String>)> = layers
+        .iter()
+        .map(|l| {
+            let names = l.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+            (l.attributes.layer_name.as_ref().map(|n| n.to_string()), names)
         })
-    };
-    let sources: [Option<usize>; 4] = match (find("R"), find("G"), find("B")) {
-        (Some(r), Some(g), Some(b)) => [Some(r), Some(g), Some(b), find("A")],
-        _ => {
-            // A single-channel image: prefer a well-known grey name, else the only channel.
-            let grey = ["Y", "Z", "L", "V", "depth"].iter().find_map(|n| find(n));
-            let grey = grey.or(if channels.len() == 1 { Some(0) } else { None });
-            match grey {
-                Some(g) => [Some(g), Some(g), Some(g), find("A")],
-                None => {
-                    let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
-                    return Err(ImageError::malformed(
-                        path,
-                        FORMAT,
-                        format!("no R/G/B or single grey channel in the first layer (channels: {})", names.join(", ")),
-                    ));
-                }
-            }
-        }
-    };
-
+        .collect();
+    let sources = choose(&parts, want).map_err(|reason| ImageError::malformed(path, FORMAT, reason))?;
+    let part = sources.iter().flatten().next().map_or(0, |s| s.part);
+    let (width, height) = (layers[part].size.width(), layers[part].size.height());
     let mut pixels = vec![[0.0, 0.0, 0.0, 1.0]; width * height];
     for (c, source) in sources.iter().enumerate() {
-        let Some(index) = source else { continue };
-        let samples = &channels[*index].sample_data;
+        let Some(at) = source else { continue };
+        let layer = &layers[at.part];
+        if (layer.size.width(), layer.size.height()) != (width, height) {
+            return Err(ImageError::malformed(path, FORMAT, "the chosen layer's channels lie in parts of other sizes"));
+        }
+        let samples = &layer.channel_data.list[at.index].sample_data;
         if samples.len() != width * height {
             return Err(ImageError::malformed(path, FORMAT, "subsampled channels are not supported"));
         }
@@ -65,7 +59,17 @@ pub(super) fn read(path: &Path) -> Result<RgbaImage, ImageError> {
 
 pub(super) fn dimensions(path: &Path) -> Result<(usize, usize), ImageError> {
     let meta = MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
-    let header = meta.headers.first().ok_or_else(|| ImageError::malformed(path, FORMAT, "no layers"))?;
+    let parts: Vec<(Option<String>, Vec<String>)> = meta
+        .headers
+        .iter()
+        .map(|h| {
+            let names = h.channels.list.iter().map(|c| c.name.to_string()).collect();
+            (h.own_attributes.layer_name.as_ref().map(|n| n.to_string()), names)
+        })
+        .collect();
+    let sources = choose(&parts, Want::Colour).map_err(|reason| ImageError::malformed(path, FORMAT, reason))?;
+    let part = sources.iter().flatten().next().map_or(0, |s| s.part);
+    let header = meta.headers.get(part).ok_or_else(|| ImageError::malformed(path, FORMAT, "no layers"))?;
     Ok((header.layer_size.width(), header.layer_size.height()))
 }
 
@@ -110,5 +114,71 @@ fn exr_error(path: &Path, error: exr::error::Error) -> ImageError {
         exr::error::Error::Io(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => ImageError::io(path, io),
         exr::error::Error::Io(_) => ImageError::malformed(path, FORMAT, "file is truncated"),
         other => ImageError::malformed(path, FORMAT, other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A layer of constant channels: `(name, value)`.
+    fn layer(name: Option<&str>, channels: &[(&str, f32)]) -> Layer<AnyChannels<FlatSamples>> {
+        let list: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            channels.iter().map(|(n, v)| AnyChannel::new(*n, FlatSamples::F32(vec![*v; 6]))).collect();
+        let attributes = match name {
+            Some(n) => LayerAttributes::named(n),
+            None => LayerAttributes::default(),
+        };
+        Layer::new((3, 2), attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(list))
+    }
+
+    fn write_layers(path: &Path, layers: Vec<Layer<AnyChannels<FlatSamples>>>) {
+        Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((3, 2))), layers)
+            .write()
+            .to_file(path)
+            .unwrap();
+    }
+
+    #[test]
+    fn multi_layer_and_multi_part_files_read_as_their_beauty_pass() {
+        let dir = tempfile::tempdir().unwrap();
+        let blender = dir.path().join("blender.exr");
+        let passes = [
+            ("ViewLayer.AO.R", 0.9),
+            ("ViewLayer.AO.G", 0.9),
+            ("ViewLayer.AO.B", 0.9),
+            ("ViewLayer.Combined.R", 0.1),
+            ("ViewLayer.Combined.G", 0.2),
+            ("ViewLayer.Combined.B", 0.3),
+            ("ViewLayer.Combined.A", 0.5),
+            ("ViewLayer.Depth.Z", 4.0),
+        ];
+        write_layers(&blender, vec![layer(None, &passes)]);
+        assert_eq!(read(&blender).unwrap().pixels()[0], [0.1, 0.2, 0.3, 0.5]);
+        assert_eq!(read_depth(&blender).unwrap().pixels()[0][0], 4.0);
+
+        let aov = dir.path().join("aov.exr");
+        let channels = [("R", 0.25), ("G", 0.5), ("B", 0.75), ("AOV.R", 9.0), ("AOV.G", 9.0), ("AOV.B", 9.0)];
+        write_layers(&aov, vec![layer(None, &channels)]);
+        assert_eq!(read(&aov).unwrap().pixels()[0], [0.25, 0.5, 0.75, 1.0]);
+
+        let parts = dir.path().join("parts.exr");
+        write_layers(
+            &parts,
+            vec![layer(Some("depth"), &[("Z", 7.0)]), layer(Some("rgba"), &[("R", 0.4), ("G", 0.6), ("B", 0.8)])],
+        );
+        assert_eq!(read(&parts).unwrap().pixels()[0], [0.4, 0.6, 0.8, 1.0]);
+        assert_eq!(read_depth(&parts).unwrap().pixels()[0][0], 7.0);
+        assert_eq!(dimensions(&parts).unwrap(), (3, 2));
+
+        let two = dir.path().join("two.exr");
+        write_layers(
+            &two,
+            vec![layer(Some("left"), &[("R", 1.0), ("G", 1.0), ("B", 1.0)]), {
+                layer(Some("right"), &[("R", 0.0), ("G", 0.0), ("B", 0.0)])
+            }],
+        );
+        let err = read(&two).unwrap_err().to_string();
+        assert!(err.contains("two.exr") && err.contains("left") && err.contains("right"), "{err}");
     }
 }

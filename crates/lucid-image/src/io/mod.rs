@@ -6,6 +6,7 @@
 
 mod animation;
 mod exr_file;
+pub mod exr_layers;
 mod ldr;
 mod pfm;
 mod rgbe;
@@ -145,6 +146,30 @@ pub fn image_dimensions(path: impl AsRef<Path>) -> Result<(usize, usize), ImageE
         ImageFormat::Pfm => pfm::dimensions(path),
         ImageFormat::Rgbe => rgbe::read(path).map(|i| i.dimensions()),
         ImageFormat::Png | ImageFormat::Jpeg => ldr::dimensions(path),
+    }
+}
+
+/// Reads an image whose every value is finite (an environment map, a light probe): a NaN or
+/// an infinity would spread through every coefficient, light or pixel computed from it.
+pub fn read_finite_image(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    let image = read_image(path)?;
+    if let Some(i) = image.pixels().iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+        let (x, y) = (i % image.width(), i / image.width());
+        let format = ImageFormat::from_path(path)?.name();
+        let reason = format!("pixel ({x}, {y}) holds a value that is not finite ({:?})", image.pixels()[i]);
+        return Err(ImageError::malformed(path, format, reason));
+    }
+    Ok(image)
+}
+
+/// Reads a depth buffer: of an EXR file its depth layer (`*.Depth`, `Z`; see
+/// [`exr_layers`]), of other formats the image, whose first channel is the depth.
+pub fn read_depth_image(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr if path.is_file() => exr_file::read_depth(path),
+        _ => read_image(path),
     }
 }
 

@@ -99,7 +99,7 @@ pub fn calibrate(
                 RelightError::Invalid(format!("{}: the frame has no HDR image to calibrate from", f.file_path))
             })?;
             let image = read_image(path)?;
-            let depth = f.extras.depth_path.as_ref().map(read_image).transpose()?;
+            let depth = f.extras.depth_path.as_ref().map(lucid_image::read_depth_image).transpose()?;
             let highlights: Vec<Highlight> =
                 spheres.iter().filter_map(|s| find_highlight(&image, depth.as_ref(), &f.camera, s)).collect();
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, frames.len());
@@ -167,7 +167,7 @@ pub fn write_directions(path: &Path, lights: &[CalibratedLight]) -> Result<(), R
 /// Reads a directions file: each light's name and unit direction.
 pub fn read_directions(path: &Path) -> Result<HashMap<String, Vec3>, RelightError> {
     let bad = |reason: String| RelightError::Invalid(format!("{}: {reason}", path.display()));
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let text = lucid_scene::text_file::read_text(path).map_err(|e| bad(e.to_string()))?;
     let file: DirectionsFile = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
     if file.format != FORMAT || file.version != 1 {
         return Err(bad(format!("format {:?} version {}, expected {FORMAT:?} version 1", file.format, file.version)));

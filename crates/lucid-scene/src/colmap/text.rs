@@ -8,7 +8,7 @@ use std::str::FromStr;
 use super::{CameraModel, ColmapCamera, ColmapError, ColmapImage, ColmapPoint, invalid, quaternion, translation};
 
 fn read(path: &Path) -> Result<String, ColmapError> {
-    std::fs::read_to_string(path).map_err(|source| ColmapError::Io { path: path.to_path_buf(), source })
+    crate::text_file::read_text(path).map_err(|source| ColmapError::Io { path: path.to_path_buf(), source })
 }
 
 /// The lines that are not comments, numbered from 1 as an editor shows them.

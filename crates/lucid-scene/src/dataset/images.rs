@@ -41,7 +41,7 @@ impl ImageSet {
                     None => image,
                 };
                 let mask = f.extras.mask_path.as_deref().map(|p| read_mask(p, image.dimensions())).transpose()?;
-                Ok((image, mask))
+                Ok::<_, lucid_image::ImageError>((image, mask))
             })
             .collect();
         let mut set = Self::default();

@@ -30,9 +30,11 @@
 //! sorted name as its test split.
 
 pub mod capture;
+mod fingerprint;
 pub mod images;
 mod nerfstudio;
 mod read;
+pub use read::MAX_POSE_ENTRY;
 pub mod summary;
 mod write;
 

@@ -78,9 +78,41 @@ pub(super) fn read_split(json: &Path, split: Split) -> Result<SplitFrames, Datas
     Ok(frames)
 }
 
+/// How far from orthonormal a pose's rotation may be once each axis has unit length: the
+/// largest entry of `RᵀR − I` (poses written with 6 or 7 decimals land near 1e-6).
+pub const ROTATION_TOLERANCE: f32 = 1e-3;
+
+/// The pose as a rigid, right-handed camera-to-world: a rotation whose axes are orthogonal but
+/// scaled (a Blender camera with an object scale) loses the scale, with a warning; a sheared
+/// or mirrored one is refused.
+pub fn rigid(pose: Mat4) -> Result<Mat4, String> {
+    let axes = [pose.x_axis.truncate(), pose.y_axis.truncate(), pose.z_axis.truncate()];
+    let lengths = axes.map(|a| a.length());
+    let unit = axes.map(|a| a.normalize_or_zero());
+    let r = glam::Mat3::from_cols(unit[0], unit[1], unit[2]);
+    let off = (r.transpose() * r - glam::Mat3::IDENTITY).to_cols_array().iter().fold(0f32, |m, v| m.max(v.abs()));
+    if off > ROTATION_TOLERANCE {
+        return Err(format!(
+            "the rotation is not orthogonal (its axes are {off:.2e} from perpendicular, more than {ROTATION_TOLERANCE:e}): \
+             a camera pose must be a rotation and a translation"
+        ));
+    }
+    if r.determinant() < 0.0 {
+        return Err(
+            "the rotation is mirrored (determinant −1, a left-handed frame): a camera pose must be a rotation \
+                    and a translation"
+                .into(),
+        );
+    }
+    if lengths.iter().any(|l| (l - 1.0).abs() > ROTATION_TOLERANCE) {
+        tracing::warn!("a camera pose's axes have lengths {lengths:?}: the scale is removed (a rigid pose has none)");
+    }
+    Ok(Mat4::from_cols(unit[0].extend(0.0), unit[1].extend(0.0), unit[2].extend(0.0), pose.w_axis))
+}
+
 /// Largest magnitude of a pose entry: beyond it a `f32` resolves no better than a few
 /// hundredths of a unit, and no capture's coordinates reach it (re-centred ones certainly not).
-const MAX_POSE_ENTRY: f64 = 1e7;
+pub const MAX_POSE_ENTRY: f64 = 1e7;
 
 /// How many times farther from the median centre than the typical camera a camera may stand.
 const MAX_CENTRE_SPREAD: f32 = 1000.0;
@@ -140,7 +172,8 @@ struct TransformsFile {
 }
 
 fn parse(json: &Path, split: Split) -> Result<TransformsFile, DatasetError> {
-    let text = std::fs::read_to_string(json).map_err(|source| DatasetError::Io { path: json.to_path_buf(), source })?;
+    let text =
+        crate::text_file::read_text(json).map_err(|source| DatasetError::Io { path: json.to_path_buf(), source })?;
     let value: Value =
         serde_json::from_str(&text).map_err(|source| DatasetError::Json { path: json.to_path_buf(), source })?;
     Ok(TransformsFile { json: json.to_path_buf(), split, value })
@@ -391,7 +424,7 @@ impl Context<'_> {
         if pose.determinant().abs() < 1e-8 {
             return Err(self.invalid(key, "the rotation part is singular"));
         }
-        Ok(pose)
+        rigid(pose).map_err(|reason| self.invalid(key, reason))
     }
 
     /// A focal length and a field of view given side by side (at one level: the file's or a

@@ -44,6 +44,9 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
         bail!("--views needs at least one train and one test view");
     }
     let started = std::time::Instant::now();
+    // A new or empty folder, or an earlier demo's (one process at a time).
+    let folder = lucid_image::owned_folder::OwnedFolder::claim(&args.out, "lucid demo", &[])?;
+    pin_dataset_settings(&args)?;
     let root = args.out.join("dataset");
     let spec = object_orbit_spec(args.size, [train, val, test], args.seed);
     let mut loaded = load_named_scene("object")?;
@@ -151,8 +154,31 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     };
     let runs: Vec<ModelRun> = nerf.into_iter().chain(splat).collect();
     let html = write_report(&facts, &runs, &args.out)?;
+    folder.finish()?;
     println!("report written to {}", html.display());
     Ok(())
+}
+
+/// Records what the dataset was made with in `demo.json`, or checks that an earlier demo in
+/// the folder made its dataset the same way: its finished frames are kept on a rerun, so
+/// frames of another seed or size must never be mixed with the new poses.
+fn pin_dataset_settings(args: &DemoArgs) -> anyhow::Result<()> {
+    let path = args.out.join("demo.json");
+    let settings = json!({ "size": args.size, "views": args.views, "spp": args.spp, "seed": args.seed });
+    match std::fs::read_to_string(&path) {
+        Ok(text) => {
+            let earlier: serde_json::Value =
+                serde_json::from_str(&text).with_context(|| format!("{}: not a demo's settings", path.display()))?;
+            if earlier != settings {
+                bail!(
+                    "{}: holds a demo made with other settings ({earlier}, now {settings}); choose another --out",
+                    args.out.display()
+                );
+            }
+            Ok(())
+        }
+        Err(_) => Ok(crate::commands::write_text(&path, &serde_json::to_string_pretty(&settings)?)?),
+    }
 }
 
 /// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and

@@ -6,14 +6,17 @@
 //! standard deviations as three f16, the rotation quaternion `(w, x, y, z)` as four f16, the
 //! opacity (after its sigmoid) as one f16, and the colour's spherical harmonics to degree 1 as
 //! twelve f16 (the DC term's r, g, b, then coefficients 1 to 3, r, g, b each). Coordinates are
-//! the model's (a capture's normalised frame), as `lucid view` shows them. The folder is
-//! written under a temporary name and renamed into place; an existing folder is replaced only
-//! if it is an earlier export.
+//! the model's (a capture's normalised frame), as `lucid view` shows them. Each file is
+//! written under a temporary name and renamed into place, into a new or empty folder or over
+//! an earlier export; files a user added beside an export stay.
 
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use half::f16;
+use lucid_image::ImageError;
+use lucid_image::owned_folder::OwnedFolder;
 use lucid_splat::cloud::SplatCloud;
 use serde_json::{Value, json};
 
@@ -24,7 +27,7 @@ const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/splats.js");
 /// Bytes per Gaussian in `splats.bin`.
 pub const BYTES_PER_SPLAT: usize = 52;
-/// What `scene.json` says wrote it: the mark of a folder this command may replace.
+/// What `scene.json` says wrote it, and the writer its folder's record names.
 const GENERATOR: &str = "lucid export web";
 
 pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
@@ -51,7 +54,7 @@ pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
     if let (Some(scene), Value::Object(more)) = (scene.as_object_mut(), more) {
         scene.extend(more);
     }
-    write_folder(&args.output, &scene, &encode(&cloud))?;
+    write_folder(&args.output, &args.checkpoint, &scene, &encode(&cloud))?;
     println!(
         "exported {} Gaussians ({:.1} MB) to {}: serve the folder (python3 -m http.server -d {}) and open it",
         cloud.len(),
@@ -90,48 +93,47 @@ pub fn encode(cloud: &SplatCloud) -> Vec<u8> {
     bytes
 }
 
-/// Writes the four files into a sibling temporary folder and renames it to `out`, replacing
-/// an earlier export there (never another folder with files in it).
-fn write_folder(out: &Path, scene: &Value, splats: &[u8]) -> anyhow::Result<()> {
-    if out.exists() {
-        let empty = out.read_dir().map(|mut d| d.next().is_none()).unwrap_or(false);
-        if !empty && !is_export(out) {
-            bail!(
-                "{}: the folder holds files that are not a Lucid web export; choose a new or empty folder",
-                out.display()
-            );
-        }
+/// Writes the four files into `out`, each under a temporary name and renamed into place:
+/// a new or empty folder, or an earlier export, whose other files (a user's) stay.
+fn write_folder(out: &Path, checkpoint: &Path, scene: &Value, splats: &[u8]) -> anyhow::Result<()> {
+    if is_unrecorded_export(out) {
+        adopt_export(out)?;
     }
-    let name = out.file_name().and_then(|n| n.to_str()).unwrap_or("web");
-    let sibling = |what: &str| out.with_file_name(format!(".{name}.{}.{what}", std::process::id()));
-    let tmp = sibling("tmp");
-    let written = (|| -> std::io::Result<()> {
-        std::fs::create_dir_all(&tmp)?;
-        std::fs::write(tmp.join("index.html"), PAGE)?;
-        std::fs::write(tmp.join("splats.js"), SCRIPT)?;
-        std::fs::write(tmp.join("splats.bin"), splats)?;
-        std::fs::write(tmp.join("scene.json"), serde_json::to_string_pretty(scene).expect("serialises"))
-    })();
-    if let Err(e) = written {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e).with_context(|| format!("writing {}", tmp.display()));
-    }
-    let old: Option<PathBuf> = out.exists().then(|| sibling("old"));
-    if let Some(old) = &old {
-        std::fs::rename(out, old).with_context(|| format!("moving the earlier export {} aside", out.display()))?;
-    }
-    std::fs::rename(&tmp, out).with_context(|| format!("writing {}", out.display()))?;
-    if let Some(old) = old {
-        std::fs::remove_dir_all(&old).with_context(|| format!("removing the earlier export {}", old.display()))?;
-    }
+    let folder = OwnedFolder::claim(out, GENERATOR, &[checkpoint])?;
+    let write = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
+        let path = folder.path(name);
+        lucid_image::write_atomically(&path, |w| w.write_all(bytes).map_err(|e| ImageError::io(&path, e)))?;
+        Ok(())
+    };
+    write("index.html", PAGE.as_bytes())?;
+    write("splats.js", SCRIPT.as_bytes())?;
+    write("splats.bin", splats)?;
+    write("scene.json", serde_json::to_string_pretty(scene).expect("serialises").as_bytes())?;
+    folder.finish()?;
     Ok(())
 }
 
-/// Whether `dir` is an earlier export: its `scene.json` names this command as its writer.
-fn is_export(dir: &Path) -> bool {
+/// Whether `dir` is an export written before exports kept a record: its `scene.json` names
+/// this command as its writer.
+fn is_unrecorded_export(dir: &Path) -> bool {
+    if lucid_image::owned_folder::is_owned(dir) {
+        return false;
+    }
     let Ok(text) = std::fs::read_to_string(dir.join("scene.json")) else { return false };
     let Ok(scene) = serde_json::from_str::<Value>(&text) else { return false };
     scene["generator"] == GENERATOR
+}
+
+/// Records the four files of an export that has no record, so it can be replaced like one.
+fn adopt_export(dir: &Path) -> anyhow::Result<()> {
+    let files: Vec<&str> =
+        ["index.html", "splats.js", "splats.bin", "scene.json"].into_iter().filter(|f| dir.join(f).is_file()).collect();
+    let record = json!({ "writer": GENERATOR, "files": files });
+    lucid_image::output::write_text(
+        &dir.join(lucid_image::owned_folder::RECORD_FILE),
+        &serde_json::to_string_pretty(&record).expect("serialises"),
+    )?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -99,6 +99,12 @@ fn pin_settings(dir: &Path, toml_text: &str) -> anyhow::Result<()> {
     }
 }
 
+/// The most views of one split.
+const MAX_VIEWS: usize = 100_000;
+/// Bytes per pixel while a frame renders: colour, normal, albedo and depth buffers with their
+/// accumulators and the encoded files.
+const GEN_BYTES_PER_PIXEL: f64 = 160.0;
+
 pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> {
     let rig = rig_file::resolve_rig(&mut args, matches)?;
     if args.res == 0 || args.res > 8192 {
@@ -107,12 +113,18 @@ pub fn run(mut args: GenArgs, matches: &clap::ArgMatches) -> anyhow::Result<()> 
     if !(args.fov > 0.0 && args.fov < 180.0) {
         bail!("--fov {} must be in (0, 180) degrees", args.fov);
     }
-    if !(args.radius.is_finite() && args.radius > 0.0) {
-        bail!("--radius must be a positive number");
+    // The readers' limit on a pose's entries, with room for the scene's extent.
+    let max_radius = lucid_scene::dataset::MAX_POSE_ENTRY as f32 / 10.0;
+    if !(args.radius.is_finite() && args.radius > 0.0 && args.radius <= max_radius) {
+        bail!("--radius {} must be a positive number of at most {max_radius:e}", args.radius);
     }
     if args.views[0] == 0 {
         bail!("--views needs at least one training view");
     }
+    if args.views.iter().any(|&n| n > MAX_VIEWS) {
+        bail!("--views {:?}: at most {MAX_VIEWS} views a split", args.views);
+    }
+    crate::commands::check_image_memory(args.res, args.res, GEN_BYTES_PER_PIXEL, "--res")?;
     let spheres = place_spheres(&args.reference_spheres).map_err(|e| anyhow::anyhow!("--reference-sphere: {e}"))?;
     let mut loaded = if spheres.is_empty() {
         lucid_datasets_gen::builtin::load_named_scene(&args.scene)?

@@ -54,7 +54,7 @@ pub fn resolve_rig(args: &mut GenArgs, matches: &clap::ArgMatches) -> anyhow::Re
     if !path.is_file() {
         bail!("{}: not a rig (orbit, brackets, lightfield, olat, capture) nor a rig file", args.rig);
     }
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let text = lucid_scene::text_file::read_text(path).with_context(|| format!("{}: cannot read", path.display()))?;
     let file: RigFile = toml::from_str(&text)
         .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim().replace('\n', " ")))?;
     let from_file = |id: &str| matches.value_source(id) != Some(ValueSource::CommandLine);

@@ -51,6 +51,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         loaded.settings.spp,
         loaded.settings.integrator.name()
     );
+    crate::commands::check_image_memory(k.width, k.height, 160.0, "--width/--height, or the scene's camera")?;
     // One writer per output (a missing folder is reported when the images are written).
     let parent = args.output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
     let _lock = parent.is_dir().then(|| lucid_image::output::OutputLock::file(&args.output)).transpose()?;

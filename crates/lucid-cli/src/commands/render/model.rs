@@ -13,7 +13,7 @@
 
 use std::f32::consts::TAU;
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use glam::Vec3;
 use lucid_image::{WriteOptions, write_image_with};
 use lucid_scene::camera_path::{CameraPath, read_camera_path, write_camera_path};
@@ -63,6 +63,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
 
     let k = cameras[0].intrinsics;
+    // Rays, their sums and the frame's images, per pixel.
+    crate::commands::check_image_memory(k.width, k.height, 96.0, "--width/--height, or the path's render size")?;
+    // Never over the path file or the checkpoint this render reads, nor into someone's folder.
+    let mut inputs = vec![args.scene.as_path()];
+    inputs.extend(args.camera_path.as_deref());
+    let folder = lucid_image::owned_folder::OwnedFolder::claim(&args.output, "lucid render", &inputs)?;
+    if let Some(video) = &args.video
+        && inputs.iter().any(|input| same_path(input, video))
+    {
+        bail!("--video {}: is an input of this render; choose another file", video.display());
+    }
     // Before anything is written: a video format without its encoder fails here.
     let mut video = match &args.video {
         Some(path) => {
@@ -70,8 +81,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    let _lock = lucid_image::output::OutputLock::folder(&args.output)?;
     let bar = crate::progress::bar(cameras.len() as u64, "rendering");
     let started = std::time::Instant::now();
     loaded.with_renderer(|renderer| -> anyhow::Result<()> {
@@ -106,6 +115,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         fps,
     };
     write_camera_path(&path_file, &written)?;
+    folder.finish()?;
     println!(
         "rendered {} frames of {}x{} in {seconds:.1} s ({:.3} s per frame) -> {} (path: {}{})",
         cameras.len(),
@@ -117,6 +127,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         if frame.is_some() { ", in the dataset's frame" } else { "" }
     );
     Ok(())
+}
+
+/// Whether two paths name one existing file.
+fn same_path(a: &std::path::Path, b: &std::path::Path) -> bool {
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
 /// The orbit or spiral around the model's centre (scene coordinates), at `radius` or the
