@@ -115,6 +115,34 @@ fn image_readers_survive_damaged_files() {
     }
 }
 
+/// A multi-part file whose parts hold Blender-style layers: the layer chooser and the part
+/// reader against damaged headers and channel lists.
+#[test]
+fn multi_layer_exr_readers_survive_damaged_files() {
+    use exr::prelude::*;
+    let layer = |name: &str, channels: &[&str]| {
+        let list: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            channels.iter().map(|c| AnyChannel::new(*c, FlatSamples::F32(vec![0.25; 20]))).collect();
+        Layer::new((5, 4), LayerAttributes::named(name), Encoding::UNCOMPRESSED, AnyChannels::sort(list))
+    };
+    let dir = temp();
+    let valid = dir.path().join("valid.exr");
+    let layers = vec![
+        layer("depth", &["Z"]),
+        layer("ViewLayer", &["Combined.R", "Combined.G", "Combined.B", "Combined.A", "AO.R", "AO.G", "AO.B"]),
+    ];
+    Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((5, 4))), layers)
+        .write()
+        .to_file(&valid)
+        .unwrap();
+    assert_eq!(lucid_image::read_image(&valid).unwrap().pixels()[0], [0.25; 4], "the Combined layer");
+    let seed = std::fs::read(&valid).unwrap();
+    let case = dir.path().join("case.exr");
+    fuzz("layered exr", &case, seed.clone(), |p: &Path| lucid_image::read_image(p));
+    fuzz("layered exr depth", &case, seed.clone(), |p: &Path| lucid_image::read_depth_image(p));
+    fuzz("layered exr size", &case, seed, |p: &Path| lucid_image::image_dimensions(p));
+}
+
 #[test]
 fn ply_readers_survive_damaged_files() {
     let dir = temp();

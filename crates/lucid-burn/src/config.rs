@@ -49,6 +49,40 @@ pub fn non_negative(key: &str, v: f64) -> Result<(), String> {
     if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{key} must be zero or positive, got {v}")) }
 }
 
+/// The keys that `requested` (TOML text) sets to other values than `recorded` (a run's
+/// configuration, as TOML) has, as `key = requested (the run has recorded)`; keys in `free`
+/// may differ. Numbers compare by value (`1` equals `1.0`).
+pub fn changed_keys(requested: &str, recorded: &str, free: &[&str]) -> Result<Vec<String>, String> {
+    let requested: toml::Table = toml::from_str(requested).map_err(|e| toml_error(requested, &e))?;
+    let recorded: toml::Table = toml::from_str(recorded).map_err(|e| toml_error(recorded, &e))?;
+    let mut changed = Vec::new();
+    compare_tables(&requested, Some(&recorded), "", free, &mut changed);
+    Ok(changed)
+}
+
+fn compare_tables(a: &toml::Table, b: Option<&toml::Table>, prefix: &str, free: &[&str], out: &mut Vec<String>) {
+    for (key, value) in a {
+        let path = if prefix.is_empty() { key.clone() } else { format!("{prefix}.{key}") };
+        let other = b.and_then(|b| b.get(key));
+        match value {
+            toml::Value::Table(table) => compare_tables(table, other.and_then(toml::Value::as_table), &path, free, out),
+            _ if free.contains(&path.as_str()) => {}
+            _ => {
+                let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+                let same = match (other, number(value)) {
+                    (Some(o), Some(x)) => number(o) == Some(x),
+                    (Some(o), None) => o == value,
+                    (None, _) => false,
+                };
+                if !same {
+                    let had = other.map_or("nothing".to_string(), |o| o.to_string());
+                    out.push(format!("{path} = {value} (the run has {had})"));
+                }
+            }
+        }
+    }
+}
+
 /// A configuration file's text (empty for the defaults) with `KEY=VALUE` overrides applied
 /// (`--set train.steps=500`: dotted keys, TOML values, a bare word taken as a string), as
 /// TOML, and where it came from for messages.

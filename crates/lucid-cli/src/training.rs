@@ -28,6 +28,35 @@ pub fn config_text(file: Option<&Path>, overrides: &[String], args: &RunArgs) ->
     lucid_burn::config::config_text(file, &overrides).map_err(anyhow::Error::msg)
 }
 
+/// On `--resume`, refuses a `--config`, `--set` or `--seed` that would change the run's
+/// recorded configuration (`config.toml` in its folder): a run continues as it began.
+pub fn refuse_resume_changes(
+    args: &RunArgs,
+    file: Option<&Path>,
+    overrides: &[String],
+    folder: &RunFolder,
+) -> anyhow::Result<()> {
+    let mut overrides = overrides.to_vec();
+    overrides.extend(args.seed.map(|s| format!("train.seed={s}")));
+    if !args.resume || (file.is_none() && overrides.is_empty()) {
+        return Ok(());
+    }
+    let (requested, _) = lucid_burn::config::config_text(file, &overrides).map_err(anyhow::Error::msg)?;
+    let path = folder.path("config.toml");
+    let recorded = std::fs::read_to_string(&path).with_context(|| path.display().to_string())?;
+    let changed = lucid_burn::config::changed_keys(&requested, &recorded, &["train.steps"])
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    if !changed.is_empty() {
+        bail!(
+            "--resume continues the run in {} as it was configured, and --config/--set/--seed would change {}; \
+             start a new run (or --overwrite) to train with other settings",
+            folder.dir().display(),
+            changed.join(", ")
+        );
+    }
+    Ok(())
+}
+
 /// `--steps` on a resumed run: its new `train.steps`.
 pub fn extend_steps(args: &RunArgs, steps: &mut usize) {
     if let Some(s) = args.steps {

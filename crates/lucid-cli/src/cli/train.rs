@@ -141,8 +141,8 @@ pub struct RunArgs {
     pub until: Option<usize>,
     /// Continue the run in OUTPUT from its checkpoint, on the dataset it trained on (its
     /// configuration and budget win; --steps or --time-limit set a new budget; --config,
-    /// --set and --seed cannot change a run that has begun).
-    #[arg(long, conflicts_with_all = ["overwrite", "config", "overrides", "seed"])]
+    /// --set and --seed may repeat the run's settings but not change them).
+    #[arg(long, conflicts_with = "overwrite")]
     pub resume: bool,
     /// Replace the run in OUTPUT: its files (checkpoint, config, log, run.json, splats.ply,
     /// eval_*/) are removed first. Without it, a folder holding a run is refused.

@@ -35,6 +35,7 @@ pub fn run_itm(args: TrainItmArgs) -> anyhow::Result<()> {
     }
     let mut folder = RunFolder::open(&args.output, ITM_KIND, start)?;
     folder.check_dataset(training::fingerprint_of(&args.datasets)?)?;
+    training::refuse_resume_changes(&args.run, args.config.as_deref(), &args.overrides, &folder)?;
     let device = lucid_burn::backend::training_device();
     let (trainer, elapsed) = match config {
         None => {

@@ -35,6 +35,7 @@ pub fn run_nerf(args: TrainModelArgs) -> anyhow::Result<()> {
     }
     let mut folder = RunFolder::open(&args.output, NERF_KIND, start)?;
     folder.check_dataset(dataset.fingerprint())?;
+    training::refuse_resume_changes(&args.run, args.config.as_deref(), &args.overrides, &folder)?;
     let data = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     let device = lucid_nerf::backend::training_device();
     let (trainer, elapsed) = match config {

@@ -110,6 +110,7 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
     }
     let mut folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
     folder.check_dataset(dataset.fingerprint())?;
+    training::refuse_resume_changes(&args.run, args.config.as_deref(), &args.overrides, &folder)?;
     let device = lucid_burn::backend::training_device();
     let head_checkpoint = folder.checkpoint();
     let (trainer, lights, elapsed, budget) = if args.run.resume && head_checkpoint.is_file() {

@@ -35,6 +35,7 @@ pub fn run_splat(args: TrainModelArgs) -> anyhow::Result<()> {
     }
     let mut folder = RunFolder::open(&args.output, SPLAT_KIND, start)?;
     folder.check_dataset(dataset.fingerprint())?;
+    training::refuse_resume_changes(&args.run, args.config.as_deref(), &args.overrides, &folder)?;
     let loaded = ImageSet::load(dataset.frames(Split::Train)).context("loading training images")?;
     // The rasterizer projects through pinholes: distorted captures train on undistorted crops.
     let data = loaded.undistorted();

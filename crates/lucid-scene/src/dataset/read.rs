@@ -104,9 +104,11 @@ pub fn rigid(pose: Mat4) -> Result<Mat4, String> {
                 .into(),
         );
     }
-    if lengths.iter().any(|l| (l - 1.0).abs() > ROTATION_TOLERANCE) {
-        tracing::warn!("a camera pose's axes have lengths {lengths:?}: the scale is removed (a rigid pose has none)");
+    // A rigid pose is kept as written, to the bit.
+    if lengths.iter().all(|l| (l - 1.0).abs() <= ROTATION_TOLERANCE) {
+        return Ok(pose);
     }
+    tracing::warn!("a camera pose's axes have lengths {lengths:?}: the scale is removed (a rigid pose has none)");
     Ok(Mat4::from_cols(unit[0].extend(0.0), unit[1].extend(0.0), unit[2].extend(0.0), pose.w_axis))
 }
 

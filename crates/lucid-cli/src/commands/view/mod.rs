@@ -9,6 +9,8 @@
 //! model's frame (a capture's normalised coordinates), as the dataset's cameras are once read.
 
 mod answers;
+#[cfg(test)]
+mod fuzz;
 pub mod live;
 mod queue;
 mod requests;

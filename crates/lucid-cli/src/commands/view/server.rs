@@ -278,6 +278,12 @@ fn parse_head(bytes: &[u8]) -> Result<Option<RequestHead>, Reply> {
     }
 }
 
+/// [`parse_head`] for the fuzzers: `Ok` whether complete or not, or the refusal's status.
+#[cfg(test)]
+pub fn parse_head_for_tests(bytes: &[u8]) -> Result<(), u16> {
+    parse_head(bytes).map(|_| ()).map_err(|reply| reply.status)
+}
+
 /// Why a request is refused before its URL is looked at, if it is.
 fn refusal(request: &RequestHead, hosts: Option<&[String]>) -> Option<Reply> {
     if request.method != "GET" && request.method != "HEAD" {
