@@ -85,7 +85,10 @@ def main():
     for t in threads:
         t.join()
     times.sort()
-    p95 = times[int(0.95 * (len(times) - 1))] if times else float("nan")
+    if not times:
+        print(f"no answer beside {args.slow} slow and {args.idle} idle connections; {failures} requests failed")
+        return
+    p95 = times[int(0.95 * (len(times) - 1))]
     print(
         f"{len(times)} answers beside {args.slow} slow and {args.idle} idle connections "
         f"({held['opened']} opened in all): median {statistics.median(times) * 1e3:.1f} ms, "

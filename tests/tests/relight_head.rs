@@ -67,3 +67,21 @@ fn relight_training_refuses_a_dataset_without_olat_frames() {
     lucid_in(d, &["train", "relight", "plain", "-o", "m", "-q", "--set", "head.light_degree=7"])
         .failure(&["head.light_degree"]);
 }
+
+/// `--time-limit` bounds both stages: the geometry stage stops by time, not at its step count
+/// (it once trained all its steps whatever the limit), and the head trains after it.
+#[test]
+fn a_time_limit_bounds_the_geometry_stage_too() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let generate = ["gen", "studio", "--rig", "olat", "--views", "4,0,1", "--res", "16", "--spp", "2", "--lights", "6"];
+    lucid_in(d, &[&generate[..], &["-o", "olat", "-q"]].concat()).success();
+    let args = ["train", "relight", "olat", "-o", "m", "-q", "--no-eval", "--time-limit", "3"];
+    lucid_in(d, &[&args[..], &["--set", "geometry.train.steps=10000000"]].concat()).success();
+    let last_step = |file: &str| -> u64 {
+        let log = std::fs::read_to_string(d.join("m").join(file)).unwrap();
+        log.lines().last().unwrap().split(',').next().unwrap().parse().unwrap()
+    };
+    assert!(last_step("geometry_log.csv") < 10_000_000, "the geometry stopped by time");
+    assert!(last_step("train_log.csv") > 0, "and the head trained after it");
+}

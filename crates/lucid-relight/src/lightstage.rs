@@ -180,12 +180,49 @@ const MIN_PEAK_SHARE: f32 = 0.1;
 /// the mean (weighted by facing) of those near it; the rest are outliers (a lobe cut by the
 /// silhouette or an occluder). `None` without estimates.
 pub fn combine(estimates: &[Highlight], outlier_degrees: f32) -> Option<Vec3> {
+    combine_with_agreement(estimates, outlier_degrees).map(|(d, _)| d)
+}
+
+/// How well a light's estimates support its direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Agreement {
+    /// Estimates within the outlier angle of the direction (the ones averaged).
+    pub agreeing: usize,
+    /// Estimates bright enough to be the light's highlight.
+    pub candidates: usize,
+    /// The largest facing (normal towards the camera) among the agreeing estimates: near
+    /// the sphere's rim (small) a highlight's lobe is foreshortened and cut by the silhouette.
+    pub facing: f32,
+}
+
+/// Agreeing estimates needed before a direction is trusted: one highlight has nothing to
+/// check it against (a reflection of a lit surface looks like a dim highlight).
+pub const MIN_AGREEING: usize = 2;
+/// A lone highlight is trusted only this far from the rim (its normal within ~60° of the view).
+pub const MIN_LONE_FACING: f32 = 0.5;
+
+impl Agreement {
+    /// Whether the direction can be trusted: two or more spheres or views agree on it, or a
+    /// lone highlight lies well inside its sphere's disc.
+    pub fn trusted(&self) -> bool {
+        self.agreeing >= MIN_AGREEING || (self.agreeing == 1 && self.candidates == 1 && self.facing >= MIN_LONE_FACING)
+    }
+}
+
+/// [`combine`], with how well the estimates agree.
+pub fn combine_with_agreement(estimates: &[Highlight], outlier_degrees: f32) -> Option<(Vec3, Agreement)> {
     let brightest = estimates.iter().map(|h| h.peak).fold(0.0, f32::max);
     let bright: Vec<&Highlight> = estimates.iter().filter(|h| h.peak >= MIN_PEAK_SHARE * brightest).collect();
     let cos = outlier_degrees.to_radians().cos();
     let near = |a: Vec3| bright.iter().filter(move |b| a.dot(b.direction) >= cos);
     let anchor = bright.iter().max_by_key(|a| near(a.direction).count())?;
-    near(anchor.direction).map(|h| h.direction * h.facing).sum::<Vec3>().try_normalize()
+    let direction = near(anchor.direction).map(|h| h.direction * h.facing).sum::<Vec3>().try_normalize()?;
+    let agreement = Agreement {
+        agreeing: near(anchor.direction).count(),
+        candidates: bright.len(),
+        facing: near(anchor.direction).map(|h| h.facing).fold(0.0, f32::max),
+    };
+    Some((direction, agreement))
 }
 
 /// Angle between two directions, in degrees.

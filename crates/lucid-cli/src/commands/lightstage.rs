@@ -32,6 +32,8 @@ pub fn run(command: LightstageCommand) -> anyhow::Result<()> {
             .with_context(|| format!("calibrating {}", dataset.display()))?;
     let errors: Vec<f32> = lights.iter().filter_map(|l| Some(angle_degrees(l.direction?, l.truth?))).collect();
     let missing: Vec<&str> = lights.iter().filter(|l| l.direction.is_none()).map(|l| l.name.as_str()).collect();
+    let unconfirmed: Vec<&str> =
+        lights.iter().filter(|l| l.direction.is_some() && !l.trusted()).map(|l| l.name.as_str()).collect();
     if json {
         let rows: Vec<_> = lights
             .iter()
@@ -40,19 +42,28 @@ pub fn run(command: LightstageCommand) -> anyhow::Result<()> {
                     "name": l.name,
                     "direction": l.direction.map(|d| d.to_array()),
                     "estimates": l.estimates,
+                    "agreeing": l.agreement.map(|a| a.agreeing),
+                    "facing": l.agreement.map(|a| a.facing),
+                    "trusted": l.trusted(),
                     "error_degrees": l.direction.zip(l.truth).map(|(d, t)| angle_degrees(d, t)),
                 })
             })
             .collect();
         println!("{}", serde_json::to_string_pretty(&json!({ "spheres": spheres.len(), "lights": rows }))?);
     } else {
-        println!("{:<6} {:>9} {:>28} {:>10}", "light", "estimates", "direction", "error (°)");
+        println!(
+            "{:<6} {:>9} {:>8} {:>7} {:>28} {:>10}",
+            "light", "estimates", "agreeing", "facing", "direction", "error (°)"
+        );
         for l in &lights {
             let direction =
                 l.direction.map_or("not found".to_string(), |d| format!("[{:+.4}, {:+.4}, {:+.4}]", d.x, d.y, d.z));
             let error =
                 l.direction.zip(l.truth).map_or("-".to_string(), |(d, t)| format!("{:.3}", angle_degrees(d, t)));
-            println!("{:<6} {:>9} {:>28} {:>10}", l.name, l.estimates, direction, error);
+            let (agreeing, facing) =
+                l.agreement.map_or(("-".into(), "-".into()), |a| (a.agreeing.to_string(), format!("{:.2}", a.facing)));
+            let flag = if l.direction.is_some() && !l.trusted() { "  unconfirmed" } else { "" };
+            println!("{:<6} {:>9} {agreeing:>8} {facing:>7} {direction:>28} {error:>10}{flag}", l.name, l.estimates);
         }
         if !errors.is_empty() {
             let mean = errors.iter().sum::<f32>() / errors.len() as f32;
@@ -67,6 +78,13 @@ pub fn run(command: LightstageCommand) -> anyhow::Result<()> {
         }
         if !missing.is_empty() {
             println!("no sphere showed {}", missing.join(", "));
+        }
+        if !unconfirmed.is_empty() {
+            println!(
+                "unconfirmed (one highlight, near its sphere's rim or beside others that disagree; left out of the \
+                 directions file): {}",
+                unconfirmed.join(", ")
+            );
         }
     }
     if let Some(out) = &output {

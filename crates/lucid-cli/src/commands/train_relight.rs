@@ -29,11 +29,19 @@ fn geometry_stage(
     images: &ImageSet,
     folder: &RunFolder,
     args: &TrainModelArgs,
-) -> anyhow::Result<SplatTrainer> {
+    run_budget: Budget,
+) -> anyhow::Result<(SplatTrainer, f64)> {
     let path = folder.path("geometry.lucid");
     let device = lucid_burn::backend::training_device();
     let g = config.geometry.train;
-    let budget = Budget::from_limits(None, None, g.steps, g.time_limit).map_err(anyhow::Error::msg)?;
+    let mut budget = Budget::from_limits(None, None, g.steps, g.time_limit).map_err(anyhow::Error::msg)?;
+    // A run limited in time gives its geometry the share of the time that the geometry's
+    // steps are of both stages' steps, so that the two stages together keep to the limit.
+    if let Some(seconds) = run_budget.seconds() {
+        let share = seconds * g.steps as f64 / (g.steps + config.train.steps).max(1) as f64;
+        let seconds = budget.seconds().map_or(share, |s| s.min(share));
+        budget = Budget::First { steps: g.steps, seconds };
+    }
     let resumed = args.run.resume && path.is_file();
     let (trainer, elapsed) = if resumed {
         let loaded = lucid_splat::checkpoint::load(&path, &device).context("resuming the geometry")?;
@@ -45,7 +53,7 @@ fn geometry_stage(
         (SplatTrainer::for_dataset(config.geometry.clone(), &cloud, dataset, images, device), 0.0)
     };
     if budget.spent(trainer.step, elapsed) {
-        return Ok(trainer);
+        return Ok((trainer, elapsed));
     }
     tracing::info!("geometry: {} uniformly lit views, {} Gaussians to start", images.len(), trainer.model.len());
     let options = RunOptions {
@@ -63,7 +71,7 @@ fn geometry_stage(
     let mut model = SplatRun { trainer, data: images, held_out: None, export };
     let summary = run(&mut model, &options, &mut NoObserver)?;
     println!("geometry: {} steps in {:.1} s, {} Gaussians", summary.steps, summary.elapsed, model.trainer.model.len());
-    Ok(model.trainer)
+    Ok((model.trainer, summary.elapsed))
 }
 
 /// The geometry against the held-out views under uniform light (their OLAT frames summed),
@@ -140,8 +148,16 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         folder.write_manifest(RELIGHT_KIND, budget)?;
         training::write_config(&folder, &config)?;
         let images = data.uniformly_lit()?;
-        let geometry = geometry_stage(&config, &dataset, &images, &folder, &args)?;
+        let (geometry, geometry_seconds) = geometry_stage(&config, &dataset, &images, &folder, &args, budget)?;
         report_geometry(&test, &geometry)?;
+        // The head has the time the geometry left (at least a tenth of the limit).
+        let budget = match budget {
+            Budget::Seconds { seconds } => Budget::Seconds { seconds: (seconds - geometry_seconds).max(0.1 * seconds) },
+            Budget::First { steps, seconds } => {
+                Budget::First { steps, seconds: (seconds - geometry_seconds).max(0.1 * seconds) }
+            }
+            steps => steps,
+        };
         let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
         let cloud = geometry.model.to_cloud();
         (RelightTrainer::new(config, cloud, geometry.eval_settings(), device), lights, 0.0, budget)

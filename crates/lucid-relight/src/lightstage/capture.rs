@@ -12,7 +12,7 @@ use lucid_scene::{Dataset, Split};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{ChromeSphere, Highlight, combine, find_highlight};
+use super::{Agreement, ChromeSphere, Highlight, combine_with_agreement, find_highlight};
 use crate::RelightError;
 
 /// Estimates farther than this from their light's consensus are outliers.
@@ -27,9 +27,18 @@ pub struct CalibratedLight {
     pub direction: Option<Vec3>,
     /// Highlights found, over spheres and views.
     pub estimates: usize,
+    /// How well they agree on the direction (`None` without one).
+    pub agreement: Option<Agreement>,
     /// The direction the dataset records, if it does (to report the error; never used to
     /// find the direction).
     pub truth: Option<Vec3>,
+}
+
+impl CalibratedLight {
+    /// Whether its direction was found and can be trusted.
+    pub fn trusted(&self) -> bool {
+        self.direction.is_some() && self.agreement.is_some_and(|a| a.trusted())
+    }
 }
 
 /// The light of an OLAT frame, from its file name: `./train/r_3_l12` is `l12`, `_h2` is `h2`.
@@ -114,11 +123,15 @@ pub fn calibrate(
     }
     Ok(by_light
         .into_values()
-        .map(|(name, truth, highlights)| CalibratedLight {
-            name,
-            direction: combine(&highlights, OUTLIER_DEGREES),
-            estimates: highlights.len(),
-            truth,
+        .map(|(name, truth, highlights)| {
+            let combined = combine_with_agreement(&highlights, OUTLIER_DEGREES);
+            CalibratedLight {
+                name,
+                direction: combined.map(|(d, _)| d),
+                estimates: highlights.len(),
+                agreement: combined.map(|(_, a)| a),
+                truth,
+            }
         })
         .collect())
 }
@@ -140,14 +153,16 @@ struct DirectionRecord {
     estimates: usize,
 }
 
-/// Writes the recovered directions (lights without one are left out) as JSON, through a
-/// temporary name.
+/// Writes the recovered directions as JSON, through a temporary name; lights without one, or
+/// whose direction is not trusted (see [`Agreement::trusted`]), are left out, so that relighting
+/// with the file names them as missing rather than using a wrong direction.
 pub fn write_directions(path: &Path, lights: &[CalibratedLight]) -> Result<(), RelightError> {
     let file = DirectionsFile {
         format: FORMAT.into(),
         version: 1,
         lights: lights
             .iter()
+            .filter(|l| l.trusted())
             .filter_map(|l| {
                 l.direction.map(|d| DirectionRecord {
                     name: l.name.clone(),

@@ -104,6 +104,7 @@ fn frames_are_named_by_their_light_and_directions_files_round_trip() {
         name: name.into(),
         direction,
         estimates: 3,
+        agreement: direction.map(|_| super::Agreement { agreeing: 3, candidates: 3, facing: 0.9 }),
         truth: None,
     };
     write_directions(&path, &[light("l0", Some(Vec3::Z)), light("l1", None), light("l2", Some(Vec3::X))]).unwrap();
