@@ -33,6 +33,10 @@ fn numbers_out_of_range_are_refused_where_they_are_parsed() {
     lucid_in(d, &["convert", "ds/test/r_0.exr", "x.exr", "--exposure", "1000"]).usage_error(&["--exposure"]);
     lucid_in(d, &["convert", "ds/test/r_0.exr", "x.exr", "--exposure", "30", "--half"]).failure(&["half"]);
     lucid_in(d, &["convert", "ds/test/r_0.exr", "dark.exr", "--exposure", "-2"]).success();
+    // Never over its own input, under any name.
+    let before = std::fs::read(d.join("dark.exr")).unwrap();
+    lucid_in(d, &["convert", "dark.exr", "./dark.exr", "--exposure", "1"]).failure(&["dark.exr", "input"]);
+    assert_eq!(std::fs::read(d.join("dark.exr")).unwrap(), before);
     lucid_in(d, &["envmap", "to-mirror-ball", "ds/test/r_0.exr", "-o", "b.exr", "--size", "0"])
         .usage_error(&["--size"]);
     lucid_in(d, &["envmap", "voronoi", ""]).failure(&["no directions"]);

@@ -10,8 +10,9 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
     if !args.exposure.is_finite() {
         anyhow::bail!("--exposure must be a finite number of stops, got {}", args.exposure);
     }
-    // Check the output format before doing any work.
+    // Check the output before doing any work.
     let out_format = ImageFormat::from_path(&args.output)?;
+    super::refuse_output_over_input(&args.output, &[&args.input])?;
     let background = args.background.as_deref().map(super::parse_background).transpose()?;
     let image = read_image(&args.input)?;
     let bad = image.non_finite_count();

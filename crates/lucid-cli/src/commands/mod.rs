@@ -69,6 +69,20 @@ pub(crate) fn refuse_existing(path: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses an output file that is one of the command's inputs (the same file under any name):
+/// a conversion never replaces what it reads.
+pub(crate) fn refuse_output_over_input(output: &std::path::Path, inputs: &[&std::path::Path]) -> anyhow::Result<()> {
+    let Ok(out) = output.canonicalize() else { return Ok(()) };
+    for input in inputs {
+        anyhow::ensure!(
+            input.canonicalize().ok().as_deref() != Some(out.as_path()),
+            "{}: is this command's input too; give another output file",
+            output.display()
+        );
+    }
+    Ok(())
+}
+
 pub fn override_samples(
     settings: &mut lucid_trace::RenderSettings,
     spp: Option<u32>,

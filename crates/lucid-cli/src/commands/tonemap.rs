@@ -32,6 +32,7 @@ fn operator(args: &TonemapArgs) -> ToneMapper {
 
 pub fn run(args: TonemapArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
+    super::refuse_output_over_input(&args.output, &[&args.input])?;
     let op = operator(&args);
     op.validate().context("bad tone-mapping parameters")?;
     let image = read_image(&args.input)?;
