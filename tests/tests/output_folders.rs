@@ -131,3 +131,33 @@ fn a_busy_view_port_leaves_no_run_behind() {
     assert!(!d.join("run").exists(), "{:?}", files_under(&d.join("run")));
     lucid_in(d, &["train", "splat", "ds", "-o", "run", "--steps", "5", "--no-eval"]).success();
 }
+
+/// A render killed part-way leaves a folder its rerun may write into (and finish).
+#[test]
+fn a_killed_render_can_be_run_again_into_its_folder() {
+    let dir = temp_dir();
+    let d = dir.path();
+    dataset_and_model(d);
+    let args =
+        ["render", "run/checkpoint.lucid", "-o", "frames", "--frames", "3000", "--width", "64", "--height", "64"];
+    let mut child = std::process::Command::new(lucid_tests::lucid_bin())
+        .args(args)
+        .current_dir(d)
+        .env("LUCID_LOG", "warn")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let marker = d.join("frames/frame_0002.png");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while !marker.exists() && std::time::Instant::now() < deadline {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(marker.exists(), "the render wrote frames before it was killed");
+    assert!(!d.join("frames/camera_path.json").exists(), "the render finished before it could be killed");
+    let args = ["render", "run/checkpoint.lucid", "-o", "frames", "--frames", "3", "--width", "64", "--height", "64"];
+    lucid_in(d, &args).success();
+    assert!(d.join("frames/camera_path.json").is_file());
+}

@@ -107,6 +107,13 @@ impl OwnedFolder {
                 found: format!("{}{more}", shown.join(", ")),
             });
         }
+        // Marked as Lucid's before anything is written: a process killed part-way leaves a
+        // folder that its rerun may use.
+        if recorded.is_none() {
+            let text = serde_json::to_string_pretty(&json!({ "writer": writer, "files": [] })).expect("serialises");
+            write_text(&dir.join(RECORD_FILE), &text)
+                .map_err(|e| FolderError::Record { path: dir.join(RECORD_FILE), reason: e.to_string() })?;
+        }
         Ok(Self {
             dir: dir.to_path_buf(),
             writer: writer.to_string(),
@@ -211,6 +218,38 @@ pub fn remove_written(dir: &Path, writer: &str) -> Result<(), FolderError> {
     drop(_lock);
     let _ = std::fs::remove_dir(dir);
     Ok(())
+}
+
+/// Gives an evaluation folder written before folders kept a record (its `metrics.json` lists
+/// the views it scored) the record of what the evaluation wrote there: `metrics.json` and, per
+/// view, `<stem>.png`, `<stem>_depth.exr` and `<stem>_error.png`; anything else in the folder is
+/// left out, so it stays someone else's. Does nothing to a folder with a record or without such
+/// a `metrics.json`.
+pub fn adopt_unrecorded_evaluation(dir: &Path) -> Result<(), FolderError> {
+    if is_owned(dir) {
+        return Ok(());
+    }
+    let Ok(text) = std::fs::read_to_string(dir.join("metrics.json")) else { return Ok(()) };
+    let Ok(report) = serde_json::from_str::<Value>(&text) else { return Ok(()) };
+    let (Some(views), true) = (report["views"].as_array(), report.get("metric_space").is_some()) else {
+        return Ok(());
+    };
+    let mut files = vec!["metrics.json".to_string()];
+    for view in views {
+        let Some(stem) = view["image"].as_str().and_then(|p| Path::new(p).file_stem()?.to_str().map(String::from))
+        else {
+            continue;
+        };
+        for name in [format!("{stem}.png"), format!("{stem}_depth.exr"), format!("{stem}_error.png")] {
+            if dir.join(&name).is_file() {
+                files.push(name);
+            }
+        }
+    }
+    let text =
+        serde_json::to_string_pretty(&json!({ "writer": "the evaluation", "files": files })).expect("serialises");
+    write_text(&dir.join(RECORD_FILE), &text)
+        .map_err(|e| FolderError::Record { path: dir.join(RECORD_FILE), reason: e.to_string() })
 }
 
 fn read_record(dir: &Path) -> Result<Option<BTreeSet<String>>, FolderError> {
@@ -333,6 +372,26 @@ mod tests {
         std::fs::write(foreign.join("x"), "x").unwrap();
         assert!(remove_written(&foreign, "lucid train --overwrite").is_err());
         assert_eq!(names(&foreign), ["x"]);
+    }
+
+    #[test]
+    fn an_evaluation_from_before_records_is_adopted_without_the_users_files() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        let report = json!({ "metric_space": "sRGB", "views": [{ "image": "ds/test/r_0.png" }] });
+        std::fs::write(dir.join("metrics.json"), report.to_string()).unwrap();
+        for name in ["r_0.png", "r_0_depth.exr", "r_0_error.png", "notes.txt"] {
+            std::fs::write(dir.join(name), name).unwrap();
+        }
+        adopt_unrecorded_evaluation(dir).unwrap();
+        remove_written(dir, "--overwrite").unwrap();
+        assert_eq!(names(dir), ["notes.txt"]);
+        // A folder of someone else's files with no evaluation's report is not adopted.
+        let other = tmp.path().join("other");
+        std::fs::create_dir(&other).unwrap();
+        std::fs::write(other.join("metrics.json"), "{}").unwrap();
+        adopt_unrecorded_evaluation(&other).unwrap();
+        assert!(!is_owned(&other));
     }
 
     #[test]

@@ -44,6 +44,7 @@ pub fn evaluate_split(
         set.lenses.iter_mut().for_each(|l| *l = None);
     }
     // Never over the dataset's own images: the folder must be new, empty or an earlier output.
+    lucid_image::owned_folder::adopt_unrecorded_evaluation(out)?;
     let folder = OwnedFolder::claim(out, "the evaluation", &[&dataset.root])?;
     let stems = unique_stems(frames);
     let mut failure = None;

@@ -116,8 +116,10 @@ impl RunFolder {
                 for name in &found {
                     let path = dir.join(name);
                     if path.is_dir() {
-                        lucid_image::owned_folder::remove_written(&path, "--overwrite")
-                            .map_err(|e| RunError::Image(Box::new(e.into())))?;
+                        let image_error =
+                            |e: lucid_image::owned_folder::FolderError| RunError::Image(Box::new(e.into()));
+                        lucid_image::owned_folder::adopt_unrecorded_evaluation(&path).map_err(image_error)?;
+                        lucid_image::owned_folder::remove_written(&path, "--overwrite").map_err(image_error)?;
                     } else {
                         std::fs::remove_file(&path).map_err(|source| RunError::Io { path, source })?;
                     }

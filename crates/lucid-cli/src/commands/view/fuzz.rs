@@ -21,31 +21,24 @@ const EXTREMES: [&str; 12] =
 const VALID: &str = "/api/render?c2w=1%2C0%2C0%2C0%2C0%2C1%2C0%2C0%2C0%2C0%2C1%2C4%2C0%2C0%2C0%2C1&fov=50&w=40&h=30\
                      &aperture=0.1&focus=3&lens_rays=8&mode=depth&format=rgb";
 
-/// A valid URL with its `which`-th number replaced, or cut, or with bytes changed, or random.
+/// A render URL whose numbers are each valid or extreme; a valid URL cut or with bytes
+/// changed; a route with a random query; random text.
 fn urls() -> BoxedStrategy<String> {
-    let numbers: Vec<(usize, usize)> = {
-        let bytes = VALID.as_bytes();
-        let mut runs = Vec::new();
-        let mut i = 0;
-        while i < bytes.len() {
-            if bytes[i].is_ascii_digit() {
-                let start = i;
-                while i < bytes.len() && (bytes[i].is_ascii_digit() || bytes[i] == b'.') {
-                    i += 1;
-                }
-                runs.push((start, i));
-            } else {
-                i += 1;
-            }
-        }
-        runs
-    };
+    let value = |valid: &'static str| prop_oneof![2 => Just(valid.to_string()), 1 => (0..EXTREMES.len()).prop_map(|e| EXTREMES[e].to_string())];
+    // The identity pose 4 units up, each entry kept or (one time in sixteen) made extreme.
+    let identity = ["1", "0", "0", "0", "0", "1", "0", "0", "0", "0", "1", "4", "0", "0", "0", "1"];
+    let pose = prop::collection::vec((0..16usize, 0..EXTREMES.len()), 16).prop_map(move |picks| {
+        let entries: Vec<&str> =
+            picks.iter().enumerate().map(|(i, &(k, e))| if k > 0 { identity[i] } else { EXTREMES[e] }).collect();
+        entries.join("%2C")
+    });
+    let render = (pose, value("50"), value("40"), value("30"), value("0.1"), value("3"), value("8"), value("2"))
+        .prop_map(|(c2w, fov, w, h, a, f, rays, x)| {
+            format!("/api/depth?c2w={c2w}&fov={fov}&w={w}&h={h}&aperture={a}&focus={f}&lens_rays={rays}&x={x}&y={x}")
+        });
     let routes = ["/api/render?", "/api/depth?x=3&y=2&", "/api/truth?", "/api/compare?", "/", "/api/info"];
     prop_oneof![
-        4 => (0..numbers.len(), 0..EXTREMES.len()).prop_map(move |(k, e)| {
-            let (a, b) = numbers[k];
-            format!("{}{}{}", &VALID[..a], EXTREMES[e], &VALID[b..])
-        }),
+        4 => render,
         1 => (0..VALID.len()).prop_map(|cut| VALID[..cut].to_string()),
         2 => prop::collection::vec((0..VALID.len(), any::<u8>()), 1..6).prop_map(|edits| {
             let mut bytes = VALID.as_bytes().to_vec();
