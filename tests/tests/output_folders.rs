@@ -116,6 +116,11 @@ fn a_demo_writes_only_over_an_earlier_demo_of_the_same_settings() {
     demo("fresh", "0").success();
     demo("fresh", "0").success();
     demo("fresh", "1").failure(&["fresh", "other settings"]);
+    // A demo written before folders kept records is taken as the demo it is.
+    std::fs::remove_file(d.join("fresh/.lucid-output.json")).unwrap();
+    std::fs::remove_file(d.join("fresh/demo.json")).unwrap();
+    demo("fresh", "1").failure(&["fresh", "other settings"]);
+    demo("fresh", "0").success();
 }
 
 /// `train --view` on a port in use fails before the run writes anything, so a rerun is not

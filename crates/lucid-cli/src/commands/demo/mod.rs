@@ -45,6 +45,7 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     }
     let started = std::time::Instant::now();
     // A new or empty folder, or an earlier demo's (one process at a time).
+    adopt_unrecorded_demo(&args.out)?;
     let folder = lucid_image::owned_folder::OwnedFolder::claim(&args.out, "lucid demo", &[])?;
     pin_dataset_settings(&args)?;
     let root = args.out.join("dataset");
@@ -157,6 +158,30 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     folder.finish()?;
     println!("report written to {}", html.display());
     Ok(())
+}
+
+/// Marks a demo written before folders kept records (its `metrics.json` and `report.html`) as
+/// Lucid's, recording none of its files: the demo rewrites its own by name, and anything else
+/// in the folder stays unrecorded. Its settings, from its `metrics.json`, become `demo.json`.
+fn adopt_unrecorded_demo(out: &std::path::Path) -> anyhow::Result<()> {
+    if lucid_image::owned_folder::is_owned(out) || !out.join("report.html").is_file() {
+        return Ok(());
+    }
+    let Ok(text) = std::fs::read_to_string(out.join("metrics.json")) else { return Ok(()) };
+    let Ok(metrics) = serde_json::from_str::<serde_json::Value>(&text) else { return Ok(()) };
+    if metrics["scene"] != "object" || metrics.get("metrics").is_none() {
+        return Ok(());
+    }
+    let settings =
+        json!({ "size": metrics["size"], "views": metrics["views"], "spp": metrics["spp"], "seed": metrics["seed"] });
+    if !out.join("demo.json").exists() {
+        crate::commands::write_text(&out.join("demo.json"), &serde_json::to_string_pretty(&settings)?)?;
+    }
+    let record = json!({ "writer": "lucid demo", "files": [] });
+    crate::commands::write_text(
+        &out.join(lucid_image::owned_folder::RECORD_FILE),
+        &serde_json::to_string_pretty(&record)?,
+    )
 }
 
 /// Records what the dataset was made with in `demo.json`, or checks that an earlier demo in
