@@ -2,7 +2,7 @@
 //! geometry and head stages, held-out views under the dataset's lights and environments
 //! against the path tracer, resume after `--until`, and bad input.
 
-use lucid_tests::{lucid_in, temp_dir};
+use lucid_tests::{csv_columns, lucid_in, temp_dir};
 
 #[test]
 fn relighting_head_renders_held_out_views_under_lights_and_environments() {
@@ -78,10 +78,7 @@ fn a_time_limit_bounds_the_geometry_stage_too() {
     lucid_in(d, &[&generate[..], &["-o", "olat", "-q"]].concat()).success();
     let args = ["train", "relight", "olat", "-o", "m", "-q", "--no-eval", "--time-limit", "3"];
     lucid_in(d, &[&args[..], &["--set", "geometry.train.steps=10000000"]].concat()).success();
-    let last_step = |file: &str| -> u64 {
-        let log = std::fs::read_to_string(d.join("m").join(file)).unwrap();
-        log.lines().last().unwrap().split(',').next().unwrap().parse().unwrap()
-    };
+    let last_step = |file: &str| -> u64 { csv_columns(&d.join("m").join(file), &[0]).last().unwrap().parse().unwrap() };
     assert!(last_step("geometry_log.csv") < 10_000_000, "the geometry stopped by time");
     assert!(last_step("train_log.csv") > 0, "and the head trained after it");
 }

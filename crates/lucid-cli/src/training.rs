@@ -36,12 +36,11 @@ pub fn refuse_resume_changes(
     overrides: &[String],
     folder: &RunFolder,
 ) -> anyhow::Result<()> {
-    let mut overrides = overrides.to_vec();
-    overrides.extend(args.seed.map(|s| format!("train.seed={s}")));
-    if !args.resume || (file.is_none() && overrides.is_empty()) {
+    if !args.resume || (file.is_none() && overrides.is_empty() && args.seed.is_none()) {
         return Ok(());
     }
-    let (requested, _) = lucid_burn::config::config_text(file, &overrides).map_err(anyhow::Error::msg)?;
+    // `--steps` in the requested text is free to differ (it sets a resumed run's new budget).
+    let (requested, _) = config_text(file, overrides, args)?;
     let path = folder.path("config.toml");
     let recorded = std::fs::read_to_string(&path).with_context(|| path.display().to_string())?;
     let changed = lucid_burn::config::changed_keys(&requested, &recorded, &["train.steps"])

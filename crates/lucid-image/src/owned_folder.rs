@@ -99,20 +99,12 @@ impl OwnedFolder {
         let recorded = read_record(dir)?;
         let before = snapshot(dir)?;
         if recorded.is_none() && !before.is_empty() {
-            let shown: Vec<&str> = before.keys().take(4).map(String::as_str).collect();
-            let more = if before.len() > 4 { format!(" and {} more", before.len() - 4) } else { String::new() };
-            return Err(FolderError::Foreign {
-                dir: dir.to_path_buf(),
-                writer: writer.to_string(),
-                found: format!("{}{more}", shown.join(", ")),
-            });
+            return Err(foreign(dir, writer, &before));
         }
         // Marked as Lucid's before anything is written: a process killed part-way leaves a
         // folder that its rerun may use.
         if recorded.is_none() {
-            let text = serde_json::to_string_pretty(&json!({ "writer": writer, "files": [] })).expect("serialises");
-            write_text(&dir.join(RECORD_FILE), &text)
-                .map_err(|e| FolderError::Record { path: dir.join(RECORD_FILE), reason: e.to_string() })?;
+            write_record(dir, writer, std::iter::empty::<&str>())?;
         }
         Ok(Self {
             dir: dir.to_path_buf(),
@@ -124,11 +116,6 @@ impl OwnedFolder {
         })
     }
 
-    /// The folder.
-    pub fn dir(&self) -> &Path {
-        &self.dir
-    }
-
     /// A path in the folder.
     pub fn path(&self, name: &str) -> PathBuf {
         self.dir.join(name)
@@ -136,26 +123,23 @@ impl OwnedFolder {
 
     /// Writes the record now (as dropping does) and lets go of the folder.
     pub fn finish(mut self) -> Result<(), FolderError> {
-        self.write_record()
+        self.record_written()
     }
 
-    fn write_record(&mut self) -> Result<(), FolderError> {
+    fn record_written(&mut self) -> Result<(), FolderError> {
         let Some(lock) = self.lock.take() else { return Ok(()) };
         let now = snapshot(&self.dir)?;
         let written = now.iter().filter(|(name, stamp)| self.before.get(*name) != Some(stamp)).map(|(n, _)| n.clone());
         let files: BTreeSet<String> =
             self.recorded.iter().filter(|n| now.contains_key(*n)).cloned().chain(written).collect();
-        let result = if files.is_empty() && self.created {
+        if files.is_empty() && self.created {
+            // Nothing written into a folder made for it: the folder goes again.
             drop(lock);
             let _ = std::fs::remove_file(self.dir.join(RECORD_FILE));
             let _ = std::fs::remove_dir(&self.dir);
             return Ok(());
-        } else {
-            let text =
-                serde_json::to_string_pretty(&json!({ "writer": self.writer, "files": files })).expect("serialises");
-            write_text(&self.dir.join(RECORD_FILE), &text)
-                .map_err(|e| FolderError::Record { path: self.dir.join(RECORD_FILE), reason: e.to_string() })
-        };
+        }
+        let result = write_record(&self.dir, &self.writer, &files);
         drop(lock);
         result
     }
@@ -164,7 +148,7 @@ impl OwnedFolder {
 impl Drop for OwnedFolder {
     fn drop(&mut self) {
         // lucid-image has no logger, and a drop cannot fail: the warning goes to stderr.
-        if let Err(e) = self.write_record() {
+        if let Err(e) = self.record_written() {
             eprintln!("warning: {e}");
         }
     }
@@ -182,19 +166,15 @@ pub fn remove_written(dir: &Path, writer: &str) -> Result<(), FolderError> {
     if !dir.exists() {
         return Ok(());
     }
-    let _lock = OutputLock::folder(dir)?;
+    let lock = OutputLock::folder(dir)?;
     let Some(files) = read_record(dir)? else {
         let found = snapshot(dir)?;
         if found.is_empty() {
-            drop(_lock);
+            drop(lock);
             let _ = std::fs::remove_dir(dir);
             return Ok(());
         }
-        return Err(FolderError::Foreign {
-            dir: dir.to_path_buf(),
-            writer: writer.to_string(),
-            found: found.keys().take(4).cloned().collect::<Vec<_>>().join(", "),
-        });
+        return Err(foreign(dir, writer, &found));
     };
     let mut parents = BTreeSet::new();
     for name in &files {
@@ -215,7 +195,7 @@ pub fn remove_written(dir: &Path, writer: &str) -> Result<(), FolderError> {
         let _ = std::fs::remove_dir(dir.join(p));
     }
     std::fs::remove_file(dir.join(RECORD_FILE)).map_err(io(&dir.join(RECORD_FILE)))?;
-    drop(_lock);
+    drop(lock);
     let _ = std::fs::remove_dir(dir);
     Ok(())
 }
@@ -246,10 +226,31 @@ pub fn adopt_unrecorded_evaluation(dir: &Path) -> Result<(), FolderError> {
             }
         }
     }
-    let text =
-        serde_json::to_string_pretty(&json!({ "writer": "the evaluation", "files": files })).expect("serialises");
-    write_text(&dir.join(RECORD_FILE), &text)
-        .map_err(|e| FolderError::Record { path: dir.join(RECORD_FILE), reason: e.to_string() })
+    write_record(dir, "the evaluation", &files)
+}
+
+/// Writes `dir`'s record: `writer` wrote `files` (paths inside `dir`, `/`-separated). Adopting
+/// an output from before records is writing one for it; otherwise [`OwnedFolder`] keeps it.
+pub fn write_record<S: AsRef<str>>(
+    dir: &Path,
+    writer: &str,
+    files: impl IntoIterator<Item = S>,
+) -> Result<(), FolderError> {
+    let files: Vec<String> = files.into_iter().map(|f| f.as_ref().to_string()).collect();
+    let text = serde_json::to_string_pretty(&json!({ "writer": writer, "files": files })).expect("serialises");
+    let path = dir.join(RECORD_FILE);
+    write_text(&path, &text).map_err(|e| FolderError::Record { path: path.clone(), reason: e.to_string() })
+}
+
+/// The refusal of a folder holding `found` and no record, naming a few of its files.
+fn foreign(dir: &Path, writer: &str, found: &Snapshot) -> FolderError {
+    let shown: Vec<&str> = found.keys().take(4).map(String::as_str).collect();
+    let more = if found.len() > 4 { format!(" and {} more", found.len() - 4) } else { String::new() };
+    FolderError::Foreign {
+        dir: dir.to_path_buf(),
+        writer: writer.to_string(),
+        found: format!("{}{more}", shown.join(", ")),
+    }
 }
 
 fn read_record(dir: &Path) -> Result<Option<BTreeSet<String>>, FolderError> {

@@ -216,11 +216,12 @@ pub fn combine_with_agreement(estimates: &[Highlight], outlier_degrees: f32) -> 
     let cos = outlier_degrees.to_radians().cos();
     let near = |a: Vec3| bright.iter().filter(move |b| a.dot(b.direction) >= cos);
     let anchor = bright.iter().max_by_key(|a| near(a.direction).count())?;
-    let direction = near(anchor.direction).map(|h| h.direction * h.facing).sum::<Vec3>().try_normalize()?;
+    let agreeing: Vec<&&Highlight> = near(anchor.direction).collect();
+    let direction = agreeing.iter().map(|h| h.direction * h.facing).sum::<Vec3>().try_normalize()?;
     let agreement = Agreement {
-        agreeing: near(anchor.direction).count(),
+        agreeing: agreeing.len(),
         candidates: bright.len(),
-        facing: near(anchor.direction).map(|h| h.facing).fold(0.0, f32::max),
+        facing: agreeing.iter().map(|h| h.facing).fold(0.0, f32::max),
     };
     Some((direction, agreement))
 }

@@ -94,12 +94,16 @@ fn unique_stems(frames: &[crate::dataset::Frame]) -> Vec<String> {
     let stem =
         |f: &crate::dataset::Frame| f.image_path.file_stem().and_then(|s| s.to_str()).unwrap_or("view").to_string();
     let stems: Vec<String> = frames.iter().map(stem).collect();
+    let mut uses = std::collections::HashMap::<&str, usize>::new();
+    for s in &stems {
+        *uses.entry(s.as_str()).or_default() += 1;
+    }
     let mut taken = std::collections::HashSet::new();
     stems
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            let shared = stems.iter().filter(|t| *t == s).count() > 1;
+            let shared = uses[s.as_str()] > 1;
             let mut name = if shared {
                 let path = frames[i].file_path.trim_start_matches("./");
                 let path = Path::new(path).with_extension("");

@@ -83,6 +83,14 @@ impl Budget {
         }
     }
 
+    /// The same step limit with a time limit of `seconds` (in place of any it had).
+    pub fn with_seconds(self, seconds: f64) -> Self {
+        match self.steps() {
+            Some(steps) => Self::First { steps, seconds },
+            None => Self::Seconds { seconds },
+        }
+    }
+
     /// The fraction of the budget used after `step` steps and `elapsed` seconds, in [0, 1]:
     /// the schedules' position.
     pub fn progress(&self, step: usize, elapsed: f64) -> f64 {

@@ -7,10 +7,7 @@ use lucid_image::{ExrPrecision, ImageFormat, PngBitDepth, WriteOptions, read_ima
 use crate::cli::{ConvertArgs, ToneCurveArg};
 
 pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
-    if !args.exposure.is_finite() {
-        anyhow::bail!("--exposure must be a finite number of stops, got {}", args.exposure);
-    }
-    // Check the output before doing any work.
+    // --exposure is range-checked as it is parsed. Check the output before doing any work.
     let out_format = ImageFormat::from_path(&args.output)?;
     super::refuse_output_over_input(&args.output, &[&args.input])?;
     let background = args.background.as_deref().map(super::parse_background).transpose()?;

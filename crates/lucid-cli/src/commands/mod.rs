@@ -141,7 +141,6 @@ pub fn parse_background(text: &str) -> anyhow::Result<[f32; 3]> {
     Ok(rgb)
 }
 
-/// Writes a text file atomically (temporary name, then rename); errors name the file.
 /// Refuses an image of `width`×`height` pixels whose buffers (`bytes_per_pixel` in all) would
 /// not fit in the memory this process may use; `what` names the flags that set the size.
 pub fn check_image_memory(width: u32, height: u32, bytes_per_pixel: f64, what: &str) -> anyhow::Result<()> {
@@ -151,6 +150,7 @@ pub fn check_image_memory(width: u32, height: u32, bytes_per_pixel: f64, what: &
     estimate.check(available).map_err(anyhow::Error::msg)
 }
 
+/// Writes a text file atomically (temporary name, then rename); errors name the file.
 pub fn write_text(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
     lucid_image::output::write_text(path, text).with_context(|| path.display().to_string())
 }

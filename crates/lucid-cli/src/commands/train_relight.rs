@@ -39,8 +39,7 @@ fn geometry_stage(
     // steps are of both stages' steps, so that the two stages together keep to the limit.
     if let Some(seconds) = run_budget.seconds() {
         let share = seconds * g.steps as f64 / (g.steps + config.train.steps).max(1) as f64;
-        let seconds = budget.seconds().map_or(share, |s| s.min(share));
-        budget = Budget::First { steps: g.steps, seconds };
+        budget = budget.with_seconds(budget.seconds().map_or(share, |s| s.min(share)));
     }
     let resumed = args.run.resume && path.is_file();
     let (trainer, elapsed) = if resumed {
@@ -151,12 +150,9 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         let (geometry, geometry_seconds) = geometry_stage(&config, &dataset, &images, &folder, &args, budget)?;
         report_geometry(&test, &geometry)?;
         // The head has the time the geometry left (at least a tenth of the limit).
-        let budget = match budget {
-            Budget::Seconds { seconds } => Budget::Seconds { seconds: (seconds - geometry_seconds).max(0.1 * seconds) },
-            Budget::First { steps, seconds } => {
-                Budget::First { steps, seconds: (seconds - geometry_seconds).max(0.1 * seconds) }
-            }
-            steps => steps,
+        let budget = match budget.seconds() {
+            Some(seconds) => budget.with_seconds((seconds - geometry_seconds).max(0.1 * seconds)),
+            None => budget,
         };
         let lights = LightSet { directions: data.directions(), irradiance: data.irradiance };
         let cloud = geometry.model.to_cloud();

@@ -29,12 +29,9 @@ pub(super) fn read_depth(path: &Path) -> Result<RgbaImage, ImageError> {
 fn read_wanted(path: &Path, want: Want) -> Result<RgbaImage, ImageError> {
     let image = read_all_flat_layers_from_file(path).map_err(|e| exr_error(path, e))?;
     let layers = &image.layer_data;
-    let parts: Vec<(Option<String>, Vec<String>)> = layers
+    let parts: Vec<_> = layers
         .iter()
-        .map(|l| {
-            let names = l.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-            (l.attributes.layer_name.as_ref().map(|n| n.to_string()), names)
-        })
+        .map(|l| part_names(l.attributes.layer_name.as_ref(), l.channel_data.list.iter().map(|c| &c.name)))
         .collect();
     let sources = choose(&parts, want).map_err(|reason| ImageError::malformed(path, FORMAT, reason))?;
     let part = sources.iter().flatten().next().map_or(0, |s| s.part);
@@ -57,15 +54,17 @@ fn read_wanted(path: &Path, want: Want) -> Result<RgbaImage, ImageError> {
     Ok(RgbaImage::from_pixels(width, height, pixels))
 }
 
+/// A part's name and its channels' names, as [`choose`] takes them.
+fn part_names<'a>(name: Option<&Text>, channels: impl Iterator<Item = &'a Text>) -> (Option<String>, Vec<String>) {
+    (name.map(|n| n.to_string()), channels.map(|c| c.to_string()).collect())
+}
+
 pub(super) fn dimensions(path: &Path) -> Result<(usize, usize), ImageError> {
     let meta = MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
-    let parts: Vec<(Option<String>, Vec<String>)> = meta
+    let parts: Vec<_> = meta
         .headers
         .iter()
-        .map(|h| {
-            let names = h.channels.list.iter().map(|c| c.name.to_string()).collect();
-            (h.own_attributes.layer_name.as_ref().map(|n| n.to_string()), names)
-        })
+        .map(|h| part_names(h.own_attributes.layer_name.as_ref(), h.channels.list.iter().map(|c| &c.name)))
         .collect();
     let sources = choose(&parts, Want::Colour).map_err(|reason| ImageError::malformed(path, FORMAT, reason))?;
     let part = sources.iter().flatten().next().map_or(0, |s| s.part);

@@ -35,9 +35,10 @@ pub struct CalibratedLight {
 }
 
 impl CalibratedLight {
-    /// Whether its direction was found and can be trusted.
+    /// Whether its direction was found and can be trusted (there is an agreement exactly
+    /// where there is a direction).
     pub fn trusted(&self) -> bool {
-        self.direction.is_some() && self.agreement.is_some_and(|a| a.trusted())
+        self.agreement.is_some_and(|a| a.trusted())
     }
 }
 

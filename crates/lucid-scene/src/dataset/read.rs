@@ -80,12 +80,12 @@ pub(super) fn read_split(json: &Path, split: Split) -> Result<SplitFrames, Datas
 
 /// How far from orthonormal a pose's rotation may be once each axis has unit length: the
 /// largest entry of `RᵀR − I` (poses written with 6 or 7 decimals land near 1e-6).
-pub const ROTATION_TOLERANCE: f32 = 1e-3;
+const ROTATION_TOLERANCE: f32 = 1e-3;
 
 /// The pose as a rigid, right-handed camera-to-world: a rotation whose axes are orthogonal but
 /// scaled (a Blender camera with an object scale) loses the scale, with a warning; a sheared
 /// or mirrored one is refused.
-pub fn rigid(pose: Mat4) -> Result<Mat4, String> {
+fn rigid(pose: Mat4) -> Result<Mat4, String> {
     let axes = [pose.x_axis.truncate(), pose.y_axis.truncate(), pose.z_axis.truncate()];
     let lengths = axes.map(|a| a.length());
     let unit = axes.map(|a| a.normalize_or_zero());

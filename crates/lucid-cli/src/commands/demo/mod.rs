@@ -177,11 +177,7 @@ fn adopt_unrecorded_demo(out: &std::path::Path) -> anyhow::Result<()> {
     if !out.join("demo.json").exists() {
         crate::commands::write_text(&out.join("demo.json"), &serde_json::to_string_pretty(&settings)?)?;
     }
-    let record = json!({ "writer": "lucid demo", "files": [] });
-    crate::commands::write_text(
-        &out.join(lucid_image::owned_folder::RECORD_FILE),
-        &serde_json::to_string_pretty(&record)?,
-    )
+    Ok(lucid_image::owned_folder::write_record(out, "lucid demo", std::iter::empty::<&str>())?)
 }
 
 /// Records what the dataset was made with in `demo.json`, or checks that an earlier demo in

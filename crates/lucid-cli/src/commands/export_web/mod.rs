@@ -126,14 +126,8 @@ fn is_unrecorded_export(dir: &Path) -> bool {
 
 /// Records the four files of an export that has no record, so it can be replaced like one.
 fn adopt_export(dir: &Path) -> anyhow::Result<()> {
-    let files: Vec<&str> =
-        ["index.html", "splats.js", "splats.bin", "scene.json"].into_iter().filter(|f| dir.join(f).is_file()).collect();
-    let record = json!({ "writer": GENERATOR, "files": files });
-    lucid_image::output::write_text(
-        &dir.join(lucid_image::owned_folder::RECORD_FILE),
-        &serde_json::to_string_pretty(&record).expect("serialises"),
-    )?;
-    Ok(())
+    let files = ["index.html", "splats.js", "splats.bin", "scene.json"].into_iter().filter(|f| dir.join(f).is_file());
+    Ok(lucid_image::owned_folder::write_record(dir, GENERATOR, files)?)
 }
 
 #[cfg(test)]

@@ -27,17 +27,7 @@ use crate::loaded_model::LoadedModel;
 const FPS: f64 = 30.0;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    if args.frames == 0 {
-        bail!("--frames must be at least 1");
-    }
-    if let (Some(a), Some(f)) = (args.aperture, args.focus)
-        && !(a.is_finite() && a >= 0.0 && f.is_finite() && f > 0.0)
-    {
-        bail!("--aperture must be zero or positive and --focus positive, got {a} and {f}");
-    }
-    if args.width == Some(0) || args.height == Some(0) {
-        bail!("--width and --height must be positive");
-    }
+    // --frames, --width, --height, --aperture and --focus are range-checked as they are parsed.
     let mut loaded = LoadedModel::load(&args.scene)?;
     loaded.set_nerf_view(&args.nerf)?;
     let frame = loaded.view().frame;
@@ -69,10 +59,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut inputs = vec![args.scene.as_path()];
     inputs.extend(args.camera_path.as_deref());
     let folder = lucid_image::owned_folder::OwnedFolder::claim(&args.output, "lucid render", &inputs)?;
-    if let Some(video) = &args.video
-        && inputs.iter().any(|input| same_path(input, video))
-    {
-        bail!("--video {}: is an input of this render; choose another file", video.display());
+    if let Some(video) = &args.video {
+        crate::commands::refuse_output_over_input(video, &inputs)?;
     }
     // Before anything is written: a video format without its encoder fails here.
     let mut video = match &args.video {
@@ -127,11 +115,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         if frame.is_some() { ", in the dataset's frame" } else { "" }
     );
     Ok(())
-}
-
-/// Whether two paths name one existing file.
-fn same_path(a: &std::path::Path, b: &std::path::Path) -> bool {
-    matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
 /// The orbit or spiral around the model's centre (scene coordinates), at `radius` or the

@@ -110,7 +110,8 @@ struct Connection {
     peer: IpAddr,
     /// A handle to close it by.
     stream: TcpStream,
-    /// Set while its request waits for the model: such a connection is never closed early.
+    /// Set while its request is being answered (a render may wait for the model): such a
+    /// connection is never closed early.
     waiting: Arc<AtomicBool>,
 }
 
@@ -173,7 +174,6 @@ fn admit(shared: &Arc<Shared>, stream: TcpStream, peer: IpAddr) {
 
 /// Every connection waits for the model: this one is told so at once.
 fn refuse_busy(mut stream: TcpStream) {
-    let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
     let reply =
         Reply::text(503, "the viewer is busy with other clients' renders; try again").with("Retry-After", "1".into());
     let _ = write_reply(&mut stream, &reply, false, Instant::now() + Duration::from_secs(1));
