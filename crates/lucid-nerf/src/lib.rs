@@ -26,6 +26,7 @@ pub mod optimizer;
 pub mod profile;
 pub mod render;
 pub mod run;
+pub mod trained;
 pub mod trainer;
 
 pub use encoding::hash_grid::{HashGridConfig, HashGridLayout, LevelLayout};

@@ -554,20 +554,7 @@ impl NerfTrainer {
 
     /// A renderer of `model` (from [`Self::eval_model`]) with this run's settings.
     pub fn renderer<'a>(&'a self, model: &'a NerfModel) -> ViewRenderer<'a> {
-        let background = match self.config.train.eval_background {
-            Background::Black => [0.0; 3],
-            _ => [1.0; 3],
-        };
-        ViewRenderer {
-            model,
-            config: self.config.field,
-            grid: &self.grid,
-            marcher: self.marcher().with_step_scale(self.config.march.render_step_scale),
-            min_transmittance: self.config.train.min_transmittance,
-            background,
-            device: crate::backend::default_device(),
-            pixel_rays: self.config.train.eval_pixel_rays,
-        }
+        crate::trained::renderer(&self.config, model, &self.grid, self.pixel_angle)
     }
 
     /// The device the model lives on.

@@ -21,6 +21,7 @@ pub mod point_cloud;
 pub mod prefetch;
 pub mod ray;
 pub mod sampling;
+pub mod scene_model;
 pub mod simd;
 pub mod text_file;
 pub mod undistort;

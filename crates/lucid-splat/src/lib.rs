@@ -25,6 +25,7 @@ pub mod raster;
 pub mod render;
 pub mod run;
 pub mod sh;
+pub mod trained;
 pub mod trainer;
 pub mod view;
 

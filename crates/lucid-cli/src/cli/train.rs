@@ -88,6 +88,53 @@ impl DatasetArgs {
     }
 }
 
+impl TrainItmArgs {
+    /// The session's request.
+    pub fn request(&self) -> lucid_session::RunRequest {
+        self.run.request(self.datasets.clone(), &self.output, &self.config, &self.overrides)
+    }
+}
+
+impl TrainModelArgs {
+    /// The session's request.
+    pub fn request(&self) -> lucid_session::RunRequest {
+        let mut request = self.run.request(vec![self.dataset.clone()], &self.output, &self.config, &self.overrides);
+        request.dataset = self.data.options();
+        request
+    }
+}
+
+impl RunArgs {
+    /// A request for a run of `datasets` into `output` with these flags.
+    pub fn request(
+        &self,
+        datasets: Vec<PathBuf>,
+        output: &std::path::Path,
+        config: &Option<PathBuf>,
+        overrides: &[String],
+    ) -> lucid_session::RunRequest {
+        use lucid_burn::run::Start;
+        lucid_session::RunRequest {
+            datasets,
+            output: output.to_path_buf(),
+            config: config.clone(),
+            overrides: overrides.to_vec(),
+            steps: self.steps,
+            time_limit: self.time_limit,
+            seed: self.seed,
+            until: self.until,
+            start: match (self.resume, self.overwrite) {
+                (true, _) => Start::Resume,
+                (false, true) => Start::Overwrite,
+                (false, false) => Start::New,
+            },
+            checkpoint_seconds: self.checkpoint_seconds,
+            evaluate: !self.no_eval,
+            dataset: lucid_scene::dataset::OpenOptions::default(),
+        }
+    }
+}
+
 /// `lucid train nerf|splat|relight`.
 #[derive(Debug, Args)]
 pub struct TrainModelArgs {

@@ -12,7 +12,6 @@ use lucid_scene::held_out::evaluate_split;
 use lucid_scene::{Dataset, Split};
 
 use crate::cli::EvalArgs;
-use crate::loaded_model::LoadedModel;
 
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     let split = match args.split.as_str() {
@@ -30,17 +29,15 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
         lucid_relight_head::checkpoint::RELIGHT_KIND => return relight(&args, split, &out),
         _ => {}
     }
-    let mut loaded = LoadedModel::load(&args.checkpoint)?;
-    loaded.set_nerf_view(&args.nerf)?;
+    let model = crate::loaded_model::open(&args.checkpoint, &args.nerf)?;
     let dataset = Dataset::open_with(&args.dataset, &args.data.options())
         .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if dataset.frames(split).is_empty() {
         bail!("{}: the dataset has no {} split", args.dataset.display(), split.name());
     }
     let mut progress = lucid_burn::run::eval_progress();
-    let evaluation = loaded.with_renderer(|renderer| {
-        evaluate_split(renderer, loaded.step(), &dataset, split, args.limit, args.pinhole, &out, &mut progress)
-    })?;
+    let evaluation =
+        evaluate_split(&*model, model.step(), &dataset, split, args.limit, args.pinhole, &out, &mut progress)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&evaluation.report)?);
     } else {

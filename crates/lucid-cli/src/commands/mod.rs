@@ -18,13 +18,13 @@ mod refocus;
 mod relight;
 mod render;
 mod tonemap;
-mod train_itm;
-mod train_nerf;
+mod train;
 mod train_relight;
-mod train_splat;
 pub mod view;
 
 use anyhow::{Context, bail};
+
+use lucid_session::methods;
 
 use crate::cli::{Command, TrainModel};
 
@@ -42,9 +42,9 @@ pub fn run(command: Command, matches: &clap::ArgMatches) -> anyhow::Result<()> {
         Command::Gen(args) => generate::run(args, matches.subcommand_matches("gen").expect("gen was parsed")),
         Command::Refocus(args) => refocus::run(args),
         Command::Train(args) => match args.model {
-            TrainModel::Nerf(args) => train_nerf::run_nerf(args),
-            TrainModel::Splat(args) => train_splat::run_splat(args),
-            TrainModel::Itm(args) => train_itm::run_itm(args),
+            TrainModel::Nerf(args) => train::run::<methods::Nerf>(args.request(), args.view),
+            TrainModel::Splat(args) => train::run::<methods::Splat>(args.request(), args.view),
+            TrainModel::Itm(args) => train::run::<methods::Itm>(args.request(), None),
             TrainModel::Relight(args) => train_relight::run_relight(args),
         },
         Command::Eval(args) => eval::run(args),

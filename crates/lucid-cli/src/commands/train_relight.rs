@@ -19,8 +19,10 @@ use lucid_splat::run::SplatRun;
 use lucid_splat::trainer::{SplatTrainer, initial_cloud};
 use lucid_splat::view::SplatRenderer;
 
+use lucid_session::RunRequest;
+use lucid_session::request::{check_memory, training_pixels, write_config};
+
 use crate::cli::TrainModelArgs;
-use crate::training;
 
 /// Stage 1: trains (or resumes, or finds finished) the geometry.
 fn geometry_stage(
@@ -28,7 +30,7 @@ fn geometry_stage(
     dataset: &Dataset,
     images: &ImageSet,
     folder: &RunFolder,
-    args: &TrainModelArgs,
+    request: &RunRequest,
     run_budget: Budget,
 ) -> anyhow::Result<(SplatTrainer, f64)> {
     let path = folder.path("geometry.lucid");
@@ -41,7 +43,7 @@ fn geometry_stage(
         let share = seconds * g.steps as f64 / (g.steps + config.train.steps).max(1) as f64;
         budget = budget.with_seconds(budget.seconds().map_or(share, |s| s.min(share)));
     }
-    let resumed = args.run.resume && path.is_file();
+    let resumed = request.resumes() && path.is_file();
     let (trainer, elapsed) = if resumed {
         let loaded = lucid_splat::checkpoint::load(&path, &device).context("resuming the geometry")?;
         (loaded.trainer, loaded.header.elapsed)
@@ -58,7 +60,7 @@ fn geometry_stage(
     let options = RunOptions {
         checkpoint: Some(path),
         checkpoint_every: g.checkpoint_every,
-        checkpoint_seconds: args.run.checkpoint_seconds,
+        checkpoint_seconds: request.checkpoint_seconds,
         log: Some(folder.path("geometry_log.csv")),
         log_every: g.log_every,
         elapsed,
@@ -94,12 +96,12 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
     if args.view.is_some() {
         anyhow::bail!("--view shows NeRF and splat runs; the relighting head has no view of its own to serve");
     }
-    let start = training::start(&args.run);
-    let config = match start {
+    let request = args.request();
+    let config = match request.start {
         Start::Resume => None,
         // The budget flags set the head's `train` keys.
         _ => {
-            let (text, origin) = training::config_text(args.config.as_deref(), &args.overrides, &args.run)?;
+            let (text, origin) = request.config_text()?;
             Some(RelightConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?)
         }
     };
@@ -111,23 +113,23 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         .without_held_out_lights();
     data.require_lights(&args.dataset, Split::Train)?;
     if let Some(config) = &config {
-        let (pixels, largest) = training::training_pixels(&dataset);
+        let (pixels, largest) = training_pixels(&dataset);
         let olat_values: usize = data.views.iter().map(|v| v.lights.iter().map(|l| l.rgb.len()).sum::<usize>()).sum();
-        training::check_memory(&config.memory_estimate(pixels, largest, olat_values))?;
+        check_memory(&config.memory_estimate(pixels, largest, olat_values))?;
     }
-    let mut folder = RunFolder::open(&args.output, RELIGHT_KIND, start)?;
+    let mut folder = RunFolder::open(&args.output, RELIGHT_KIND, request.start)?;
     folder.check_dataset(dataset.fingerprint())?;
-    training::refuse_resume_changes(&args.run, args.config.as_deref(), &args.overrides, &folder)?;
+    request.refuse_resume_changes(&folder)?;
     let device = lucid_burn::backend::training_device();
     let head_checkpoint = folder.checkpoint();
-    let (trainer, lights, elapsed, budget) = if args.run.resume && head_checkpoint.is_file() {
+    let (trainer, lights, elapsed, budget) = if request.resumes() && head_checkpoint.is_file() {
         let mut loaded = checkpoint::load(&head_checkpoint, &device).context("resuming")?;
         tracing::info!("resuming {} at head step {}", head_checkpoint.display(), loaded.trainer.step);
         let t = &mut loaded.trainer.config.train;
-        training::extend_steps(&args.run, &mut t.steps);
-        let budget = training::budget(&args.run, &folder, t.steps, t.time_limit)?;
+        t.steps = request.steps.unwrap_or(t.steps);
+        let budget = request.budget(&folder, t.steps, t.time_limit)?;
         folder.write_manifest(RELIGHT_KIND, budget)?;
-        training::write_config(&folder, &loaded.trainer.config)?;
+        write_config(&folder, &loaded.trainer.config)?;
         (loaded.trainer, loaded.lights, loaded.header.elapsed, budget)
     } else {
         // A run killed in its geometry stage keeps its configuration in config.toml.
@@ -138,16 +140,16 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
                 let text = std::fs::read_to_string(&path).with_context(|| path.display().to_string())?;
                 let mut config =
                     RelightConfig::from_toml(&text, &path.display().to_string()).map_err(anyhow::Error::msg)?;
-                training::extend_steps(&args.run, &mut config.train.steps);
+                config.train.steps = request.steps.unwrap_or(config.train.steps);
                 config
             }
         };
         // Written first, so a run killed in its geometry stage can be resumed.
-        let budget = training::budget(&args.run, &folder, config.train.steps, config.train.time_limit)?;
+        let budget = request.budget(&folder, config.train.steps, config.train.time_limit)?;
         folder.write_manifest(RELIGHT_KIND, budget)?;
-        training::write_config(&folder, &config)?;
+        write_config(&folder, &config)?;
         let images = data.uniformly_lit()?;
-        let (geometry, geometry_seconds) = geometry_stage(&config, &dataset, &images, &folder, &args, budget)?;
+        let (geometry, geometry_seconds) = geometry_stage(&config, &dataset, &images, &folder, &request, budget)?;
         report_geometry(&test, &geometry)?;
         // The head has the time the geometry left (at least a tenth of the limit).
         let budget = match budget.seconds() {
@@ -168,10 +170,10 @@ pub fn run_relight(args: TrainModelArgs) -> anyhow::Result<()> {
         budget.describe()
     );
     // A head resumed from step 0 (a run killed in its geometry stage) keeps no log rows.
-    let options = training::options(&args.run, &folder, budget, elapsed, (t.checkpoint_every, t.log_every), "relight")?;
+    let options = request.options(&folder, budget, elapsed, (t.checkpoint_every, t.log_every), "relight")?;
     let held_out = Some((&test, head_checkpoint.clone()));
     let mut model = HeadRun { trainer, data: &data, lights: &lights, held_out };
     let summary = run(&mut model, &options, &mut NoObserver)?;
-    training::print_summary(&summary, "the relighting head", &head_checkpoint);
+    crate::training::print_summary(&summary, "the relighting head", &head_checkpoint);
     Ok(())
 }

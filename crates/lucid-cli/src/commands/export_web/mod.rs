@@ -21,7 +21,7 @@ use lucid_splat::cloud::SplatCloud;
 use serde_json::{Value, json};
 
 use crate::cli::ExportWebArgs;
-use crate::loaded_model::LoadedModel;
+use lucid_splat::trained::TrainedSplats;
 
 const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/splats.js");
@@ -31,17 +31,16 @@ pub const BYTES_PER_SPLAT: usize = 52;
 const GENERATOR: &str = "lucid export web";
 
 pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
-    let loaded = LoadedModel::load(&args.checkpoint)?;
-    let LoadedModel::Splat(trainer) = &loaded else {
+    let model = lucid_session::registry::open(&args.checkpoint)?;
+    let Some(splats) = model.as_any().downcast_ref::<TrainedSplats>() else {
         bail!(
             "{}: a {} checkpoint; the web export draws 3D Gaussian splats (lucid train splat)",
             args.checkpoint.display(),
-            loaded.model().kind()
+            model.kind()
         );
     };
-    let cloud = trainer.model.to_cloud();
-    let model = loaded.model();
-    let mut scene = super::view::view_fields(model, trainer.eval_settings().background);
+    let cloud = splats.cloud();
+    let mut scene = super::view::view_fields(&*model, splats.settings().background);
     let more = json!({
         "generator": GENERATOR,
         "version": env!("CARGO_PKG_VERSION"),
@@ -54,7 +53,7 @@ pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
     if let (Some(scene), Value::Object(more)) = (scene.as_object_mut(), more) {
         scene.extend(more);
     }
-    write_folder(&args.output, &args.checkpoint, &scene, &encode(&cloud))?;
+    write_folder(&args.output, &args.checkpoint, &scene, &encode(cloud))?;
     println!(
         "exported {} Gaussians ({:.1} MB) to {}: serve the folder (python3 -m http.server -d {}) and open it",
         cloud.len(),

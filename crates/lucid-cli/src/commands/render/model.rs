@@ -21,16 +21,15 @@ use lucid_scene::dataset::SceneNormalisation;
 use lucid_scene::{Intrinsics, PinholeCamera, look_at};
 
 use crate::cli::{CameraPathArg, RenderArgs};
-use crate::loaded_model::LoadedModel;
+use lucid_session::SceneModel;
 
 /// Frame rate written into the path of an orbit or spiral.
 const FPS: f64 = 30.0;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // --frames, --width, --height, --aperture and --focus are range-checked as they are parsed.
-    let mut loaded = LoadedModel::load(&args.scene)?;
-    loaded.set_nerf_view(&args.nerf)?;
-    let frame = loaded.view().frame;
+    let model = crate::loaded_model::open(&args.scene, &args.nerf)?;
+    let frame = model.view().frame;
     // Lengths on the command line are the dataset's; the model measures in the scene's.
     let to_scene = |length: f32| frame.map_or(length, |n| length * n.scale as f32);
     // Lenses stay in the dataset's units here (they are written back with the path).
@@ -41,7 +40,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             (in_frame(cameras, frame.as_ref(), SceneNormalisation::pose_to_scene), path.lenses, path.fps)
         }
         None => {
-            let cameras = path_cameras(&args, &loaded, args.radius.map(to_scene))?;
+            let cameras = path_cameras(&args, &*model, args.radius.map(to_scene))?;
             let lenses = vec![None; cameras.len()];
             (cameras, lenses, FPS)
         }
@@ -71,10 +70,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let bar = crate::progress::bar(cameras.len() as u64, "rendering");
     let started = std::time::Instant::now();
-    loaded.with_renderer(|renderer| -> anyhow::Result<()> {
+    {
         for (k, camera) in cameras.iter().enumerate() {
             let lens = lenses[k].map(|(a, f)| (to_scene(a), to_scene(f)));
-            let out = renderer.render_view(camera, lens, args.lens_rays, k as u64);
+            let out = model.render_view(camera, lens, args.lens_rays, k as u64);
             // Written from the encoded colours as the viewer sends them: the same pixels.
             let png = lucid_image::encoded_png(&out.colour, false)?;
             let file = args.output.join(format!("frame_{k:04}.png"));
@@ -89,8 +88,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             write_image_with(args.output.join(format!("frame_{k:04}_depth.exr")), &depth, depth_options)?;
             bar.inc(1);
         }
-        Ok(())
-    })?;
+    }
     bar.finish_and_clear();
     if let Some(video) = video {
         video.finish(&args.output, fps)?;
@@ -119,14 +117,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
 /// The orbit or spiral around the model's centre (scene coordinates), at `radius` or the
 /// training cameras' distance.
-fn path_cameras(args: &RenderArgs, loaded: &LoadedModel, radius: Option<f32>) -> anyhow::Result<Vec<PinholeCamera>> {
-    let view = loaded.view();
+fn path_cameras(args: &RenderArgs, model: &dyn SceneModel, radius: Option<f32>) -> anyhow::Result<Vec<PinholeCamera>> {
+    let view = model.view();
     let (w, h) = (args.width.unwrap_or(view.width), args.height.unwrap_or(view.height));
     let radius = radius.unwrap_or(view.radius);
     if !(radius.is_finite() && radius > 0.0) {
         bail!("--radius must be positive, got {radius}");
     }
-    let centre = loaded.centre();
+    let centre = model.centre();
     let intrinsics = Intrinsics::from_fov_x(w, h, view.fov_x);
     Ok((0..args.frames)
         .map(|k| {

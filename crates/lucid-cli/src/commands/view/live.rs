@@ -15,19 +15,20 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use lucid_burn::run::{ModelError, NoObserver, Observer, StepReport};
-use lucid_nerf::run::NerfRun;
+use lucid_burn::run::StepReport;
 use lucid_scene::dataset::images::ImageSet;
 use lucid_scene::evaluation::evaluate;
 use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split};
-use lucid_splat::run::SplatRun;
 use serde_json::{Value, json};
 
 use super::answers::ViewedScene;
 use super::queue::Job;
 use super::requests::Route;
 use super::{ViewServer, info};
-use crate::loaded_model::ModelRef;
+use lucid_session::SceneModel;
+
+/// The model of a run as it is now, made when a render needs it.
+type Snapshot<'m> = &'m dyn Fn() -> Box<dyn SceneModel>;
 
 /// The most of the wall time the viewer may take from training for the page's renders, and
 /// for the held-out scores: 6.5 % together, leaving room under the 10 % the viewer may cost
@@ -91,9 +92,9 @@ impl TimeShare {
 }
 
 /// The live viewer of one training run.
-pub struct LiveView<'a> {
+pub struct LiveView {
     server: ViewServer,
-    dataset: &'a Dataset,
+    dataset: Dataset,
     status: Arc<Mutex<Value>>,
     held_out: Option<(Split, ImageSet)>,
     /// A request taken from the queue, waiting for the share to allow it.
@@ -112,32 +113,11 @@ pub struct LiveView<'a> {
     window: (f64, f64, usize),
 }
 
-/// The live viewer `--view` asks for (none without it), of the run writing `output`.
-pub fn for_run<'a>(
-    port: Option<u16>,
-    output: &std::path::Path,
-    model: ModelRef,
-    dataset: &'a Dataset,
-) -> anyhow::Result<Option<LiveView<'a>>> {
-    port.map(|port| LiveView::start(port, &format!("training {}", output.display()), model, dataset)).transpose()
-}
-
-/// The run's observer: `live` where there is one, else one that does nothing.
-pub fn observer<'a, T>(live: &'a mut Option<LiveView<'_>>, none: &'a mut NoObserver) -> &'a mut dyn Observer<T>
-where
-    for<'l> LiveView<'l>: Observer<T>,
-{
-    match live {
-        Some(live) => live,
-        None => none,
-    }
-}
-
-impl<'a> LiveView<'a> {
+impl LiveView {
     /// Starts serving `model` (as it is before its first step) on 127.0.0.1:`port`.
-    pub fn start(port: u16, name: &str, model: ModelRef, dataset: &'a Dataset) -> anyhow::Result<Self> {
+    pub fn start(port: u16, name: &str, model: &dyn SceneModel, dataset: Dataset) -> anyhow::Result<Self> {
         let status = Arc::new(Mutex::new(json!({ "step": model.step(), "training": true })));
-        let info = info(name, model, Some(dataset), true);
+        let info = info(name, model, Some(&dataset), true);
         // One request waits; more are told to retry: the page keeps one in flight.
         let server = ViewServer::start("127.0.0.1", port, info, Some(status.clone()), 1)?;
         let held_out = [Split::Val, Split::Test].into_iter().find_map(|split| {
@@ -166,8 +146,8 @@ impl<'a> LiveView<'a> {
         })
     }
 
-    fn observe(&mut self, model: ModelRef, report: &StepReport, elapsed: f64) {
-        let step = model.step();
+    /// Answers what waits and scores what is due after step `step`, within the time shares.
+    pub fn observe(&mut self, step: usize, model: Snapshot, report: &StepReport, elapsed: f64) {
         let (loss, psnr, n) = &mut self.window;
         *loss += f64::from(report.loss);
         *psnr += report.psnr.map_or(0.0, f64::from);
@@ -208,7 +188,7 @@ impl<'a> LiveView<'a> {
         }
         if score_due && self.scoring.allows(score_cost) {
             let began = Instant::now();
-            self.score(model, elapsed);
+            self.score(step, model, elapsed);
             self.scoring.pay(began);
             self.last_score = Some(Instant::now());
             changed = true;
@@ -217,8 +197,8 @@ impl<'a> LiveView<'a> {
             && let Some(job) = self.pending.take()
         {
             let began = Instant::now();
-            let dataset = Some(self.dataset);
-            model.with_renderer(|renderer| job.answer_from(&ViewedScene { renderer, dataset }));
+            let dataset = Some(&self.dataset);
+            job.answer_from(&ViewedScene { renderer: &*model(), dataset });
             self.viewing.pay(began);
         }
         if !changed {
@@ -259,15 +239,15 @@ impl<'a> LiveView<'a> {
         self.held_out.is_some() && self.last_score.is_none_or(|t| t.elapsed().as_secs_f64() >= HELD_OUT_EVERY)
     }
 
-    fn score(&mut self, model: ModelRef, elapsed: f64) {
+    fn score(&mut self, step: usize, model: Snapshot, elapsed: f64) {
         let Some((_, set)) = &self.held_out else { return };
-        let (_, summary) = model.with_renderer(|renderer| evaluate(renderer, set, None, |_, _, _, _| {}));
-        self.scores.push(json!({ "step": model.step(), "seconds": elapsed, "psnr": summary.psnr }));
+        let (_, summary) = evaluate(&*model(), set, None, |_, _, _, _| {});
+        self.scores.push(json!({ "step": step, "seconds": elapsed, "psnr": summary.psnr }));
     }
 
     /// Seconds per pixel of a small render at a held-out camera (or at the first dataset
     /// camera), whose middle it covers.
-    fn probe(&self, model: ModelRef) -> Option<f64> {
+    fn probe(&self, model: Snapshot) -> Option<f64> {
         let camera = match &self.held_out {
             Some((_, set)) => set.cameras[0],
             None => self.dataset.all_frames().next()?.camera,
@@ -282,24 +262,8 @@ impl<'a> LiveView<'a> {
             ..k
         };
         let started = Instant::now();
-        model.with_renderer(|renderer| {
-            renderer.render_view(&PinholeCamera::new(middle, camera.camera_to_world), None, 1, 0)
-        });
+        model().render_view(&PinholeCamera::new(middle, camera.camera_to_world), None, 1, 0);
         Some(started.elapsed().as_secs_f64() / f64::from(side * side))
-    }
-}
-
-impl Observer<NerfRun<'_>> for LiveView<'_> {
-    fn after_step(&mut self, run: &NerfRun<'_>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
-        self.observe(ModelRef::Nerf(&run.trainer), report, elapsed);
-        Ok(())
-    }
-}
-
-impl Observer<SplatRun<'_>> for LiveView<'_> {
-    fn after_step(&mut self, run: &SplatRun<'_>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
-        self.observe(ModelRef::Splat(&run.trainer), report, elapsed);
-        Ok(())
     }
 }
 

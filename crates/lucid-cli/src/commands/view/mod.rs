@@ -29,7 +29,7 @@ use self::queue::{Job, RenderQueue};
 use self::requests::Route;
 use self::server::Client;
 use crate::cli::ViewArgs;
-use crate::loaded_model::{LoadedModel, ModelRef};
+use lucid_session::SceneModel;
 
 const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/viewer.js");
@@ -40,7 +40,7 @@ const SCRIPT: &str = include_str!("page/viewer.js");
 const RENDER_QUEUE: usize = 4;
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
-    let loaded = LoadedModel::load(&args.checkpoint)?;
+    let model = lucid_session::registry::open(&args.checkpoint)?;
     let dataset = args
         .dataset
         .as_ref()
@@ -48,18 +48,16 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
             Dataset::open_with(dir, &args.data.options()).with_context(|| format!("reading dataset {}", dir.display()))
         })
         .transpose()?;
-    let info = info(&args.checkpoint.display().to_string(), loaded.model(), dataset.as_ref(), false);
+    let info = info(&args.checkpoint.display().to_string(), &*model, dataset.as_ref(), false);
     let server = ViewServer::start(&args.host, args.port, info, None, RENDER_QUEUE)?;
-    println!("lucid view: {}  ({} model, step {}; Ctrl-C stops)", server.url, loaded.model().kind(), loaded.step());
+    println!("lucid view: {}  ({} model, step {}; Ctrl-C stops)", server.url, model.kind(), model.step());
     use std::io::Write;
     std::io::stdout().flush()?;
-    loaded.with_renderer(|renderer| {
-        let scene = ViewedScene { renderer, dataset: dataset.as_ref() };
-        // Until the server is gone (never, short of the process ending).
-        while let Some(job) = server.queue.next() {
-            job.answer_from(&scene);
-        }
-    });
+    let scene = ViewedScene { renderer: &*model, dataset: dataset.as_ref() };
+    // Until the server is gone (never, short of the process ending).
+    while let Some(job) = server.queue.next() {
+        job.answer_from(&scene);
+    }
     Ok(())
 }
 
@@ -134,9 +132,9 @@ fn handle(url: &str, client: &Client, info: &str, status: Option<&Mutex<Value>>,
 
 /// What the page needs to know before its first render: the model's kind, how its training
 /// cameras saw it, and the dataset's cameras (poses row-major, as requests send them).
-fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> Value {
+fn info(name: &str, model: &dyn SceneModel, dataset: Option<&Dataset>, live: bool) -> Value {
     let view = model.view();
-    let background = model.with_renderer(|r| r.background());
+    let background = model.background();
     let cameras: Vec<Value> = dataset
         .map(|d| {
             d.splits
@@ -171,7 +169,7 @@ fn info(name: &str, model: ModelRef, dataset: Option<&Dataset>, live: bool) -> V
 /// How the model's training cameras saw it, for a page's first camera (shared with the web
 /// export's `scene.json`): image size, vertical field of view, the scene's centre and the
 /// cameras' distance from it, up, and the background.
-pub fn view_fields(model: ModelRef, background: [f32; 3]) -> Value {
+pub fn view_fields(model: &dyn SceneModel, background: [f32; 3]) -> Value {
     let view = model.view();
     let fov_y = 2.0 * ((0.5 * view.fov_x).tan() * view.height as f32 / view.width as f32).atan();
     json!({
