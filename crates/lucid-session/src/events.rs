@@ -47,6 +47,8 @@ pub enum Event<'a> {
         summary: &'a RunSummary,
         /// The last checkpoint.
         checkpoint: &'a Path,
+        /// The trained model.
+        model: Snapshot<'a>,
     },
 }
 

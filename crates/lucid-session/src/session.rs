@@ -70,7 +70,7 @@ pub fn train<M: Method>(request: &RunRequest, listener: &mut dyn Listener) -> Re
     let summary = lucid_burn::run::run(&mut trainer, &options, &mut observer)?;
     let checkpoint = folder.checkpoint();
     listener
-        .on(&Event::Finished { summary: &summary, checkpoint: &checkpoint })
+        .on(&Event::Finished { summary: &summary, checkpoint: &checkpoint, model: &|| M::snapshot(&trainer) })
         .map_err(|e| SessionError::read("finishing the run", e))?;
     Ok(summary)
 }

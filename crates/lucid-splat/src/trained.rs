@@ -10,6 +10,7 @@ use lucid_scene::scene_model::{RendersThrough, SceneModel};
 
 use crate::checkpoint::SPLAT_KIND;
 use crate::cloud::SplatCloud;
+use crate::config::SplatConfig;
 use crate::project::RenderSettings;
 use crate::trainer::SplatTrainer;
 use crate::view::SplatRenderer;
@@ -18,6 +19,7 @@ use lucid_burn::checkpoint::CheckpointError;
 /// Gaussians to render, without optimiser state or densification statistics.
 pub struct TrainedSplats {
     cloud: SplatCloud,
+    config: SplatConfig,
     settings: RenderSettings,
     view: ViewInfo,
     centre: Vec3,
@@ -29,6 +31,7 @@ impl TrainedSplats {
     pub fn of(trainer: &SplatTrainer) -> Self {
         Self {
             cloud: trainer.model.to_cloud(),
+            config: trainer.config.clone(),
             settings: trainer.eval_settings(),
             view: trainer.view,
             centre: trainer.centre,
@@ -45,6 +48,11 @@ impl TrainedSplats {
     /// The Gaussians.
     pub fn cloud(&self) -> &SplatCloud {
         &self.cloud
+    }
+
+    /// The configuration they were trained with.
+    pub fn config(&self) -> &SplatConfig {
+        &self.config
     }
 
     /// How they are rendered.

@@ -20,7 +20,7 @@ mod render;
 mod tonemap;
 mod train;
 mod train_relight;
-pub mod view;
+mod view;
 
 use anyhow::{Context, bail};
 

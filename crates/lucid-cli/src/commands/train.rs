@@ -7,7 +7,7 @@ use lucid_burn::run::ModelError;
 use lucid_session::events::Event;
 use lucid_session::{Listener, Method, RunRequest};
 
-use crate::commands::view::live::LiveView;
+use lucid_view::live::LiveView;
 
 /// Trains `request` with method `M`, serving the viewer's page on `view` while it trains.
 pub fn run<M: Method>(request: RunRequest, view: Option<u16>) -> anyhow::Result<()> {
@@ -33,7 +33,9 @@ impl Listener for TrainListener {
                     return Err("--view shows NeRF and splat runs; this method has no view of its own to serve".into());
                 };
                 let name = format!("training {}", folder.display());
-                self.live = Some(LiveView::start(port, &name, &*model, dataset.clone()).map_err(|e| format!("{e:#}"))?);
+                let live = LiveView::start(port, &name, &*model, dataset.clone())?;
+                println!("viewing the run at {} (the page follows the training)", live.url());
+                self.live = Some(live);
             }
             Event::Step { step, elapsed, report, model } => {
                 if let Some(live) = &mut self.live {

@@ -16,9 +16,12 @@ use lucid_image::tonemap::ToneCurve;
 use lucid_scene::{Dataset, Split};
 use serde_json::json;
 
-use lucid_burn::run::{Budget, CHECKPOINT, ModelError, RunOptions, StepReport};
+use std::path::Path;
+
+use lucid_burn::run::{CHECKPOINT, ModelError, Start};
 use lucid_scene::dataset::images::ImageSet;
-use lucid_splat::view::SplatRenderer;
+use lucid_session::events::Event;
+use lucid_session::{Method, RunRequest, methods};
 
 use crate::cli::DemoArgs;
 use report::{DemoFacts, ModelRun, held_out_psnr, novel_views, score_and_show, write_report};
@@ -94,9 +97,9 @@ pub fn run(mut args: DemoArgs) -> anyhow::Result<()> {
     let n = MetricSummary::from_images(&nearest);
     // 3. A NeRF trained on the training views, scored on the same test views.
     let test_set = ImageSet::load(dataset.frames(Split::Test))?;
-    let nerf = if args.nerf_steps > 0 { Some(train_nerf(&dataset, &test_set, &args)?) } else { None };
+    let nerf = if args.nerf_steps > 0 { Some(train_nerf(&root, &test_set, &args)?) } else { None };
     // 4. A 3DGS cloud, likewise.
-    let splat = if args.splat_steps > 0 { Some(train_splat(&dataset, &test_set, &args)?) } else { None };
+    let splat = if args.splat_steps > 0 { Some(train_splat(&root, &test_set, &args)?) } else { None };
     let elapsed = started.elapsed().as_secs_f64();
 
     println!(
@@ -202,71 +205,70 @@ fn pin_dataset_settings(args: &DemoArgs) -> anyhow::Result<()> {
     }
 }
 
-/// Trains the default NeRF for `args.nerf_steps` steps, saves it under `<out>/nerf/` and
-/// scores it on the test views (renders written beside the checkpoint).
-fn train_nerf(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
-    let mut config = lucid_nerf::config::NerfConfig::default();
-    config.train.steps = args.nerf_steps;
-    config.train.seed = args.seed;
-    let train = lucid_nerf::data::ImageSet::load(dataset.frames(Split::Train))?;
-    let device = lucid_nerf::backend::training_device();
-    let trainer = lucid_nerf::trainer::NerfTrainer::for_dataset(config, dataset, &train, device);
+/// Trains the default NeRF for `args.nerf_steps` steps in `<out>/nerf/` and scores it on the
+/// test views (renders written beside the checkpoint).
+fn train_nerf(root: &Path, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
     tracing::info!("training a NeRF for {} steps", args.nerf_steps);
-    let dir = model_dir(args, "nerf")?;
-    let mut model = lucid_nerf::run::NerfRun { trainer, data: &train, held_out: None };
-    let mut curve = Vec::new();
-    let every = curve_interval(args.nerf_steps);
-    let mut observe = |run: &lucid_nerf::run::NerfRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
-        if run.trainer.step.is_multiple_of(every) || run.trainer.step == args.nerf_steps {
-            let model = run.trainer.eval_model();
-            curve.push((seconds, held_out_psnr(&run.trainer.renderer(&model), test)));
-        }
-        Ok(())
-    };
-    let summary = lucid_burn::run::run(&mut model, &demo_options(args.nerf_steps, &dir, "nerf"), &mut observe)?;
-    let trainer = &model.trainer;
-    let eval_model = trainer.eval_model();
-    let renderer = trainer.renderer(&eval_model);
-    show_run("NeRF", &renderer, &summary, curve, test, &dir, args)
+    train_model::<methods::Nerf>("NeRF", root, test, args, args.nerf_steps, Vec::new())
 }
 
 /// Trains the default 3DGS configuration for `args.splat_steps` steps (its schedule scaled to
-/// them), saves it under `<out>/splat/` with `splats.ply`, and scores it on the test views.
-fn train_splat(dataset: &Dataset, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
-    use lucid_splat::trainer::{SplatTrainer, initial_cloud};
-    let mut config = lucid_splat::config::SplatConfig::default();
+/// them) in `<out>/splat/` with `splats.ply`, and scores it on the test views.
+fn train_splat(root: &Path, test: &ImageSet, args: &DemoArgs) -> anyhow::Result<ModelRun> {
+    let config = lucid_splat::config::SplatConfig::default();
     let steps = args.splat_steps;
     // The reference schedule spans 30k steps; a short run keeps its proportions.
     let scale = |v: usize| (v * steps / config.train.steps).max(1);
-    let d = config.densify;
-    config.densify.from = scale(d.from);
-    config.densify.until = scale(d.until);
-    config.densify.opacity_reset_every = scale(d.opacity_reset_every);
-    config.train.sh_degree_every = scale(config.train.sh_degree_every);
-    config.densify.every = scale(d.every).max(config.train.steps.min(steps) / 100).max(10);
-    config.train.steps = steps;
-    config.train.seed = args.seed;
-    let train = ImageSet::load(dataset.frames(Split::Train))?;
-    let cloud = initial_cloud(&config, dataset, &train).map_err(anyhow::Error::msg)?;
-    let trainer = SplatTrainer::for_dataset(config, &cloud, dataset, &train, lucid_burn::backend::training_device());
+    let (d, t) = (config.densify, config.train);
+    let every = scale(d.every).max(t.steps.min(steps) / 100).max(10);
+    let schedule = [
+        ("densify.from", scale(d.from)),
+        ("densify.until", scale(d.until)),
+        ("densify.opacity_reset_every", scale(d.opacity_reset_every)),
+        ("train.sh_degree_every", scale(t.sh_degree_every)),
+        ("densify.every", every),
+    ];
     tracing::info!("training 3D Gaussian splats for {steps} steps");
-    let dir = model_dir(args, "splat")?;
-    let export = Some(dir.join("splats.ply"));
-    let mut model = lucid_splat::run::SplatRun { trainer, data: &train, held_out: None, export };
-    let mut curve = Vec::new();
+    let overrides = schedule.iter().map(|(key, value)| format!("{key}={value}")).collect();
+    train_model::<methods::Splat>("3DGS", root, test, args, steps, overrides)
+}
+
+/// Trains method `M` with its defaults and `overrides` for `steps` steps in `<out>/<kind>/`
+/// (replacing an earlier demo's run there), recording its held-out PSNR curve on the way, and
+/// scores the result on the test views.
+fn train_model<M: Method>(
+    name: &'static str,
+    root: &Path,
+    test: &ImageSet,
+    args: &DemoArgs,
+    steps: usize,
+    overrides: Vec<String>,
+) -> anyhow::Result<ModelRun> {
+    let dir = args.out.join(M::KIND);
+    let request = RunRequest {
+        overrides,
+        steps: Some(steps),
+        seed: Some(args.seed),
+        start: Start::Overwrite,
+        checkpoint_seconds: 0.0,
+        evaluate: false,
+        ..RunRequest::new(root, &dir)
+    };
     let every = curve_interval(steps);
-    let mut observe = |run: &lucid_splat::run::SplatRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
-        if run.trainer.step.is_multiple_of(every) || run.trainer.step == steps {
-            let cloud = run.trainer.model.to_cloud();
-            let renderer = SplatRenderer { cloud: &cloud, settings: run.trainer.eval_settings() };
-            curve.push((seconds, held_out_psnr(&renderer, test)));
+    let (mut curve, mut trained) = (Vec::new(), None);
+    let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
+        match *event {
+            Event::Step { step, elapsed, model, .. } if step.is_multiple_of(every) || step == steps => {
+                curve.push((elapsed, held_out_psnr(&*model().ok_or("a model that renders views")?, test)));
+            }
+            Event::Finished { model, .. } => trained = model(),
+            _ => {}
         }
         Ok(())
     };
-    let summary = lucid_burn::run::run(&mut model, &demo_options(steps, &dir, "splat"), &mut observe)?;
-    let cloud = model.trainer.model.to_cloud();
-    let renderer = SplatRenderer { cloud: &cloud, settings: model.trainer.eval_settings() };
-    show_run("3DGS", &renderer, &summary, curve, test, &dir, args)
+    let summary = lucid_session::train::<M>(&request, &mut listener)?;
+    let model = trained.context("the trained model")?;
+    show_run(name, &*model, &summary, curve, test, &dir, args)
 }
 
 /// A trained model's part of the report: its scores on every test view (renders in `dir`),
@@ -286,24 +288,7 @@ fn show_run(
     Ok(ModelRun { name, steps: run.steps, seconds: run.elapsed, summary, checkpoint, curve, views, novel })
 }
 
-/// `<out>/<name>`, created.
-fn model_dir(args: &DemoArgs, name: &str) -> anyhow::Result<std::path::PathBuf> {
-    let dir = args.out.join(name);
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    Ok(dir)
-}
-
 /// Steps between the points of a held-out PSNR curve over `steps`.
 fn curve_interval(steps: usize) -> usize {
     (steps / CURVE_POINTS).max(1)
-}
-
-/// A demo model's run: `steps` steps, one checkpoint at the end in `dir`, no log.
-fn demo_options(steps: usize, dir: &std::path::Path, label: &str) -> RunOptions {
-    RunOptions {
-        checkpoint: Some(dir.join(CHECKPOINT)),
-        checkpoint_seconds: 0.0,
-        label: label.to_string(),
-        ..RunOptions::new(Budget::Steps { steps })
-    }
 }

@@ -40,7 +40,7 @@ pub fn run(args: ExportWebArgs) -> anyhow::Result<()> {
         );
     };
     let cloud = splats.cloud();
-    let mut scene = super::view::view_fields(&*model, splats.settings().background);
+    let mut scene = lucid_view::view_fields(&*model, splats.settings().background);
     let more = json!({
         "generator": GENERATOR,
         "version": env!("CARGO_PKG_VERSION"),

@@ -97,7 +97,7 @@ mod tests {
     use lucid_scene::{Intrinsics, PinholeCamera};
 
     use super::*;
-    use crate::commands::view::requests::{FrameFormat, ImageMode, ViewRequest};
+    use crate::requests::{FrameFormat, ImageMode, ViewRequest};
 
     /// A model whose every render panics, as a bad request once made one.
     struct Panicking;

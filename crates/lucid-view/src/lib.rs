@@ -1,7 +1,7 @@
-//! `lucid view CHECKPOINT [--dataset DIR] [--port 7007] [--host 127.0.0.1]`: a local web page
-//! that shows the model rendered by Lucid on this CPU, to fly around, refocus and compare with
-//! the dataset's images; and the same page for a model while it trains (`lucid train nerf|splat
-//! --view`, see [`live`]).
+//! Lucid's viewer: a local web page that shows a model rendered by Lucid on this CPU, to fly
+//! around, refocus and compare with the dataset's images ([`ViewServer::for_model`], which
+//! `lucid view` serves); and the same page for a model while it trains ([`live`], which
+//! `lucid train nerf|splat --view` serves).
 //!
 //! The server's connection threads parse requests and answer the page, its script, the
 //! model's description and a run's progress themselves; requests that need the model wait in
@@ -20,7 +20,7 @@ use std::net::TcpListener;
 use std::sync::mpsc::channel;
 use std::sync::{Arc, Mutex};
 
-use anyhow::Context;
+use lucid_scene::scene_model::SceneModel;
 use lucid_scene::{Dataset, PinholeCamera};
 use serde_json::{Value, json};
 
@@ -28,8 +28,6 @@ use self::answers::{Reply, ViewedScene};
 use self::queue::{Job, RenderQueue};
 use self::requests::Route;
 use self::server::Client;
-use crate::cli::ViewArgs;
-use lucid_session::SceneModel;
 
 const PAGE: &str = include_str!("page/index.html");
 const SCRIPT: &str = include_str!("page/viewer.js");
@@ -38,28 +36,6 @@ const SCRIPT: &str = include_str!("page/viewer.js");
 /// keeps at most two in flight, so only several pages at once fill it; requests whose clients
 /// have gone do not count).
 const RENDER_QUEUE: usize = 4;
-
-pub fn run(args: ViewArgs) -> anyhow::Result<()> {
-    let model = lucid_session::registry::open(&args.checkpoint)?;
-    let dataset = args
-        .dataset
-        .as_ref()
-        .map(|dir| {
-            Dataset::open_with(dir, &args.data.options()).with_context(|| format!("reading dataset {}", dir.display()))
-        })
-        .transpose()?;
-    let info = info(&args.checkpoint.display().to_string(), &*model, dataset.as_ref(), false);
-    let server = ViewServer::start(&args.host, args.port, info, None, RENDER_QUEUE)?;
-    println!("lucid view: {}  ({} model, step {}; Ctrl-C stops)", server.url, model.kind(), model.step());
-    use std::io::Write;
-    std::io::stdout().flush()?;
-    let scene = ViewedScene { renderer: &*model, dataset: dataset.as_ref() };
-    // Until the server is gone (never, short of the process ending).
-    while let Some(job) = server.queue.next() {
-        job.answer_from(&scene);
-    }
-    Ok(())
-}
 
 /// A listening viewer: its URL and the queue of requests that need the model.
 pub struct ViewServer {
@@ -72,14 +48,15 @@ impl ViewServer {
     /// Listens on `host:port` and serves from connection threads: the page, `info`, and
     /// `status` where given (a training run's progress, updated by its owner); model requests
     /// wait in a queue of `queue` for [`Self::queue`]'s reader.
-    pub fn start(
+    pub(crate) fn start(
         host: &str,
         port: u16,
         info: Value,
         status: Option<Arc<Mutex<Value>>>,
         queue: usize,
-    ) -> anyhow::Result<Self> {
-        let listener = TcpListener::bind((host, port)).with_context(|| format!("cannot listen on {host}:{port}"))?;
+    ) -> Result<Self, ViewError> {
+        let address = format!("{host}:{port}");
+        let listener = TcpListener::bind((host, port)).map_err(|source| ViewError::Listen { address, source })?;
         let addr = listener.local_addr()?;
         if !addr.ip().is_loopback() {
             tracing::warn!("serving on {addr}: every machine that reaches this address can view the model");
@@ -92,6 +69,43 @@ impl ViewServer {
         let shown = if addr.ip().is_unspecified() { format!("127.0.0.1:{}", addr.port()) } else { addr.to_string() };
         Ok(Self { url: format!("http://{shown}/"), queue })
     }
+
+    /// Listens on `host:port` for the page of `model` (named `name` on it), with `dataset`'s
+    /// images to compare with where given.
+    pub fn for_model(
+        host: &str,
+        port: u16,
+        name: &str,
+        model: &dyn SceneModel,
+        dataset: Option<&Dataset>,
+    ) -> Result<Self, ViewError> {
+        Self::start(host, port, info(name, model, dataset, false), None, RENDER_QUEUE)
+    }
+
+    /// Answers the page's requests with renders of `model` on this thread, until the server is
+    /// gone (never, short of the process ending).
+    pub fn serve(&self, model: &dyn SceneModel, dataset: Option<&Dataset>) {
+        let scene = ViewedScene { renderer: model, dataset };
+        while let Some(job) = self.queue.next() {
+            job.answer_from(&scene);
+        }
+    }
+}
+
+/// Why the viewer could not serve.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    /// The address could not be listened on (a port in use, a host not of this machine).
+    #[error("cannot listen on {address}: {source}")]
+    Listen {
+        /// `host:port`.
+        address: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The listening socket failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
 }
 
 /// Answers one URL on a connection thread: pages, the description and the progress at once,

@@ -1,4 +1,4 @@
-//! `lucid train nerf|splat ... --view [PORT]`: the viewer's page served while the model trains,
+//! The viewer's page served while a model trains (`lucid train nerf|splat ... --view [PORT]`),
 //! showing the model as it is now, the step, the loss and the held-out PSNR over time.
 //!
 //! The training loop calls [`LiveView`] after every step (an observer of the run, whose time
@@ -24,11 +24,11 @@ use serde_json::{Value, json};
 use super::answers::ViewedScene;
 use super::queue::Job;
 use super::requests::Route;
-use super::{ViewServer, info};
-use lucid_session::SceneModel;
+use super::{ViewError, ViewServer, info};
+use lucid_scene::scene_model::SceneModel;
 
 /// The model of a run as it is now, made when a render needs it.
-type Snapshot<'m> = &'m dyn Fn() -> Box<dyn SceneModel>;
+pub type Snapshot<'m> = &'m dyn Fn() -> Box<dyn SceneModel>;
 
 /// The most of the wall time the viewer may take from training for the page's renders, and
 /// for the held-out scores: 6.5 % together, leaving room under the 10 % the viewer may cost
@@ -114,8 +114,13 @@ pub struct LiveView {
 }
 
 impl LiveView {
+    /// The page's address.
+    pub fn url(&self) -> &str {
+        &self.server.url
+    }
+
     /// Starts serving `model` (as it is before its first step) on 127.0.0.1:`port`.
-    pub fn start(port: u16, name: &str, model: &dyn SceneModel, dataset: Dataset) -> anyhow::Result<Self> {
+    pub fn start(port: u16, name: &str, model: &dyn SceneModel, dataset: Dataset) -> Result<Self, ViewError> {
         let status = Arc::new(Mutex::new(json!({ "step": model.step(), "training": true })));
         let info = info(name, model, Some(&dataset), true);
         // One request waits; more are told to retry: the page keeps one in flight.
@@ -127,7 +132,6 @@ impl LiveView {
             let set = ImageSet::load(&chosen).ok()?;
             (!set.is_empty()).then_some((split, set))
         });
-        println!("viewing the run at {} (the page follows the training)", server.url);
         Ok(Self {
             server,
             dataset,
