@@ -9,6 +9,9 @@ use lucid_scene::{Dataset, Split};
 use crate::data::ImageSet;
 use crate::trainer::NerfTrainer;
 
+/// The NeRF's own columns of the training log.
+pub const LOG_COLUMNS: [&str; 4] = ["rays", "samples", "learning_rate", "occupied_fraction"];
+
 /// A NeRF trainer with its training images.
 pub struct NerfRun<'a> {
     /// The trainer.
@@ -41,7 +44,7 @@ impl Trainable for NerfRun<'_> {
     }
 
     fn log_columns(&self) -> &'static [&'static str] {
-        &["rays", "samples", "learning_rate", "occupied_fraction"]
+        &LOG_COLUMNS
     }
 
     fn non_finite(&self) -> Option<String> {

@@ -39,6 +39,9 @@ pub struct RunRequest {
     pub checkpoint_seconds: f64,
     /// Whether the test split is scored at the end.
     pub evaluate: bool,
+    /// Whether the run keeps its CSV log and checkpoints (a benchmark's timed run keeps
+    /// neither: writing them would count as training time).
+    pub records: bool,
     /// How datasets without split files are split, and captures scaled.
     pub dataset: OpenOptions,
 }
@@ -58,6 +61,7 @@ impl RunRequest {
             start: Start::New,
             checkpoint_seconds: lucid_burn::run::DEFAULT_CHECKPOINT_SECONDS,
             evaluate: true,
+            records: true,
             dataset: OpenOptions::default(),
         }
     }
@@ -136,10 +140,10 @@ impl RunRequest {
         }
         Ok(RunOptions {
             until: self.until,
-            checkpoint: Some(folder.checkpoint()),
+            checkpoint: self.records.then(|| folder.checkpoint()),
             checkpoint_every,
             checkpoint_seconds: self.checkpoint_seconds,
-            log: Some(folder.path("train_log.csv")),
+            log: self.records.then(|| folder.path("train_log.csv")),
             log_every,
             elapsed,
             resumed: self.resumes(),

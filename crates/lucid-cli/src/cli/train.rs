@@ -130,6 +130,7 @@ impl RunArgs {
             },
             checkpoint_seconds: self.checkpoint_seconds,
             evaluate: !self.no_eval,
+            records: true,
             dataset: lucid_scene::dataset::OpenOptions::default(),
         }
     }

@@ -197,6 +197,26 @@ fn run_trainer(args: &BenchArgs, target: BenchTarget, dataset: BenchDataset) -> 
     })
 }
 
+/// A benchmark's timed run of `dataset` for `seconds` with `overrides`, in `folder`: no log,
+/// no checkpoints (writing them would count as training time), no closing evaluation (the
+/// benchmark scores its own curve).
+fn timed_request(
+    dataset: &BenchDataset,
+    overrides: &[String],
+    seconds: f64,
+    folder: &std::path::Path,
+) -> lucid_session::RunRequest {
+    lucid_session::RunRequest {
+        overrides: overrides.to_vec(),
+        time_limit: Some(seconds),
+        checkpoint_seconds: 0.0,
+        evaluate: false,
+        records: false,
+        dataset: dataset.options,
+        ..lucid_session::RunRequest::new(&dataset.root, folder.join("run"))
+    }
+}
+
 fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
     let mut loaded = lucid_datasets_gen::builtin::load_named_scene("cornell")?;
     if quick {

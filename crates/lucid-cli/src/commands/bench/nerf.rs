@@ -5,12 +5,16 @@
 //! the curve, the training throughput, the time per phase, and the render time of one view.
 
 use anyhow::Context;
-use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport, Trainable};
+use lucid_burn::run::ModelError;
+use lucid_nerf::config::NerfConfig;
 use lucid_nerf::data::ImageSet;
 use lucid_nerf::profile::time_kernels;
-use lucid_nerf::run::NerfRun;
-use lucid_nerf::trainer::{NerfTrainer, StepTimings};
+use lucid_nerf::run::LOG_COLUMNS;
+use lucid_nerf::trained::TrainedNerf;
+use lucid_nerf::trainer::StepTimings;
 use lucid_scene::Split;
+use lucid_session::events::Event;
+use lucid_session::methods::Nerf;
 use serde_json::json;
 
 use crate::budget_curve::BudgetCurve;
@@ -29,40 +33,41 @@ pub struct NerfBench {
 
 pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let (dataset, ceiling) = bench.dataset.open(bench.quick)?;
-    let train = ImageSet::load(dataset.frames(Split::Train))?;
-    let test_frames = dataset.frames(Split::Test);
-    let test = ImageSet::load(test_frames)?;
+    let test = ImageSet::load(dataset.frames(Split::Test))?;
     let val = ImageSet::load(dataset.frames(Split::Val))?;
-    let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
-    let config = lucid_nerf::config::NerfConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
-    let device = lucid_nerf::backend::training_device();
-    let trainer = NerfTrainer::for_dataset(config, &dataset, &train, device);
-    let mut model = NerfRun { trainer, data: &train, held_out: None };
-    let samples_column = model.log_columns().iter().position(|c| *c == "samples").expect("a samples column");
-
     let mut curve = BudgetCurve::benchmark(bench.quick, &test, Some(&val), bench.curve_views);
-    let total = curve.total();
+    let samples_column = LOG_COLUMNS.iter().position(|c| *c == "samples").expect("a samples column");
     let mut samples = 0usize;
-    let mut observe = |run: &NerfRun, report: &StepReport, seconds: f64| -> Result<(), ModelError> {
-        samples += report.columns[samples_column] as usize;
-        while curve.due(seconds) {
-            let eval_model = run.trainer.eval_model();
-            curve.score(&run.trainer.renderer(&eval_model), seconds, run.trainer.step, json!({}));
+    let mut trained = None;
+    let total = curve.total();
+    let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
+        match *event {
+            Event::Step { step, elapsed, report, model } => {
+                samples += report.columns[samples_column] as usize;
+                while curve.due(elapsed) {
+                    curve.score(&*model().ok_or("a NeRF")?, elapsed, step, json!({}));
+                }
+            }
+            Event::Finished { model, .. } => trained = model(),
+            Event::Ready { .. } => {}
         }
         Ok(())
     };
     // Time ends the run, and the learning rate decays over it.
-    let options = RunOptions { label: "nerf bench".into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
-    let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
+    let folder = tempfile::tempdir().context("a folder for the benchmark's run")?;
+    let request = super::timed_request(&bench.dataset, &bench.overrides, total, folder.path());
+    let summary = lucid_session::train::<Nerf>(&request, &mut listener)?;
+    let trained = trained.context("the trained model")?;
+    let nerf = trained.as_any().downcast_ref::<TrainedNerf>().context("a NeRF")?;
     let last = curve.last.take().context("the last budget point is scored")?;
     let last_val = curve.last_val.take();
     // Best of 7: a call takes ~0.1 s and this machine's hiccups last longer than that.
-    let kernel = time_kernels(&model.trainer.config.field, 1 << 16, 7);
+    let kernel = time_kernels(&nerf.config().field, 1 << 16, 7);
     let phases = StepTimings::from_named(&summary.phases);
     println!("lucid bench nerf{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
     let note = super::ceiling_note(ceiling.as_ref());
-    let mut out =
-        report(&model.trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick, &note);
+    let trainer = (nerf.config(), summary.steps);
+    let mut out = report(trainer, &curve.points, &last, &phases, samples, summary.elapsed, kernel, bench.quick, &note);
     out["dataset"] = json!(bench.dataset.root.display().to_string());
     out["scene"] = json!(bench.dataset.built_in);
     out["ceiling"] = json!(ceiling);
@@ -75,7 +80,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
 
 #[allow(clippy::too_many_arguments)]
 fn report(
-    trainer: &NerfTrainer,
+    (config, steps): (&NerfConfig, usize),
     curve: &[serde_json::Value],
     last: &lucid_nerf::eval::EvalSummary,
     phases: &StepTimings,
@@ -98,7 +103,7 @@ fn report(
     }
     let rate = samples as f64 / trained.max(1e-9);
     println!("final: {} test views, PSNR {:.2} dB{ceiling_note}, SSIM {:.4}", last.views, last.psnr, last.ssim);
-    println!("training throughput: {:.0} samples/s over {} steps", rate, trainer.step);
+    println!("training throughput: {:.0} samples/s over {steps} steps", rate);
     println!("render time per held-out view: {:.3} s", last.seconds_per_view);
     // Split the field's share between encoding and MLP with the kernel timings' ratios.
     let total: f64 = phases.named().iter().map(|p| p.1).sum::<f64>().max(1e-9);
@@ -122,8 +127,8 @@ fn report(
     json!({
         "benchmark": "nerf", "quick": quick, "backend": lucid_nerf::backend::backend_name(),
         "threads": rayon::current_num_threads(), "curve": curve, "final": last,
-        "samples_per_second": rate, "steps": trainer.step, "training_seconds": trained,
+        "samples_per_second": rate, "steps": steps, "training_seconds": trained,
         "time_shares": shares, "kernel_seconds_per_65536_samples": kernel,
-        "config": trainer.config,
+        "config": config,
     })
 }

@@ -9,14 +9,15 @@ use std::time::Instant;
 
 use anyhow::Context;
 use glam::Vec3;
-use lucid_burn::run::{Budget, ModelError, RunOptions, StepReport};
+use lucid_burn::run::ModelError;
 use lucid_scene::dataset::images::ImageSet;
-use lucid_scene::{Dataset, Intrinsics, PinholeCamera, Split, look_at};
-use lucid_splat::config::{InitConfig, SplatConfig};
+use lucid_scene::{Intrinsics, PinholeCamera, Split, look_at};
+use lucid_session::SceneModel;
+use lucid_session::events::Event;
+use lucid_session::methods::Splat;
 use lucid_splat::raster::{rasterize, rasterize_backward};
-use lucid_splat::run::{PHASES, SplatRun};
-use lucid_splat::trainer::{SplatTrainer, initial_cloud};
-use lucid_splat::view::SplatRenderer;
+use lucid_splat::run::PHASES;
+use lucid_splat::trained::TrainedSplats;
 use lucid_splat::{RenderSettings, RenderState, SplatCamera, SplatCloud, render, render_backward};
 use serde_json::json;
 
@@ -34,72 +35,75 @@ pub struct SplatBench {
     pub curve_views: usize,
 }
 
-/// One training run of the benchmark: the model, its curve and the loop's summary.
+/// One training run of the benchmark: the trained cloud, its curve and the loop's summary.
 struct TrainedRun<'a> {
-    model: SplatRun<'a>,
+    splats: Box<dyn SceneModel>,
     curve: BudgetCurve<'a>,
     summary: lucid_burn::run::RunSummary,
 }
 
-/// Trains `config` for the benchmark's budget, scoring the curve on `test` (and the last
-/// point on `val`) as it goes.
+impl TrainedRun<'_> {
+    fn splats(&self) -> &TrainedSplats {
+        self.splats.as_any().downcast_ref().expect("a splat run trains splats")
+    }
+}
+
+/// Trains with the benchmark's `overrides` for its budget, scoring the curve on `test` (and
+/// the last point on `val`) as it goes.
 fn train_run<'a>(
-    config: SplatConfig,
-    dataset: &Dataset,
-    sets: [&'a ImageSet; 3],
     bench: &SplatBench,
-    label: &str,
+    overrides: &[String],
+    [val, test]: [&'a ImageSet; 2],
 ) -> anyhow::Result<TrainedRun<'a>> {
-    let [train, val, test] = sets;
-    let cloud = initial_cloud(&config, dataset, train).map_err(anyhow::Error::msg)?;
-    let device = lucid_burn::backend::training_device();
-    let trainer = SplatTrainer::for_dataset(config, &cloud, dataset, train, device);
-    let mut model = SplatRun { trainer, data: train, held_out: None, export: None };
     let mut curve = BudgetCurve::benchmark(bench.quick, test, Some(val), bench.curve_views);
+    let mut trained = None;
     let total = curve.total();
-    let mut observe = |run: &SplatRun, _: &StepReport, seconds: f64| -> Result<(), ModelError> {
-        while curve.due(seconds) {
-            let cloud = run.trainer.model.to_cloud();
-            let renderer = SplatRenderer { cloud: &cloud, settings: run.trainer.eval_settings() };
-            curve.score(&renderer, seconds, run.trainer.step, json!({ "gaussians": cloud.len() }));
+    let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
+        match *event {
+            Event::Step { step, elapsed, model, .. } => {
+                while curve.due(elapsed) {
+                    let model = model().ok_or("splats")?;
+                    let gaussians = model.as_any().downcast_ref::<TrainedSplats>().map_or(0, |s| s.cloud().len());
+                    curve.score(&*model, elapsed, step, json!({ "gaussians": gaussians }));
+                }
+            }
+            Event::Finished { model, .. } => trained = model(),
+            Event::Ready { .. } => {}
         }
         Ok(())
     };
     // Time ends the run, and the schedules stretch over it.
-    let options = RunOptions { label: label.into(), ..RunOptions::new(Budget::Seconds { seconds: total }) };
-    let summary = lucid_burn::run::run(&mut model, &options, &mut observe)?;
-    Ok(TrainedRun { model, curve, summary })
+    let folder = tempfile::tempdir().context("a folder for the benchmark's run")?;
+    let request = super::timed_request(&bench.dataset, overrides, total, folder.path());
+    let summary = lucid_session::train::<Splat>(&request, &mut listener)?;
+    let splats = trained.context("the trained splats")?;
+    Ok(TrainedRun { splats, curve, summary })
 }
 
 pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     let (dataset, ceiling) = bench.dataset.open(bench.quick)?;
     let note = super::ceiling_note(ceiling.as_ref());
-    // The rasterizer projects through pinholes: distorted captures train on undistorted crops
-    // (and are scored on their own images through the renderer's warp).
-    let loaded = ImageSet::load(dataset.frames(Split::Train))?;
-    let train = loaded.undistorted();
     let val = ImageSet::load(dataset.frames(Split::Val))?;
     let test = ImageSet::load(dataset.frames(Split::Test))?;
-    let (text, origin) = lucid_burn::config::config_text(None, &bench.overrides).map_err(anyhow::Error::msg)?;
-    let config = SplatConfig::from_toml(&text, &origin).map_err(anyhow::Error::msg)?;
     // The default starts from the dataset's point cloud, which Lucid back-projects from the
     // renderer's exact depth: a capture never has that. The same run from random points in
     // the scene box is reported beside it.
-    let random_config = SplatConfig { init: InitConfig { use_points: false, ..config.init }, ..config.clone() };
-    let sets = [&*train, &val, &test];
-    let TrainedRun { model, mut curve, summary } = train_run(config, &dataset, sets, &bench, "splat bench")?;
+    let mut random_overrides = bench.overrides.clone();
+    random_overrides.push("init.use_points=false".into());
+    let TrainedRun { splats, mut curve, summary } = train_run(&bench, &bench.overrides, [&val, &test])?;
     let last = curve.last.take().context("the last budget point is scored")?;
     let last_val = curve.last_val.take();
-    let mut random = train_run(random_config, &dataset, sets, &bench, "splat bench, random init")?;
+    let mut random = train_run(&bench, &random_overrides, [&val, &test])?;
     let random_last = random.curve.last.take().context("the last budget point is scored")?;
     let random_val = random.curve.last_val.take();
     let curve = curve.points;
-    let trainer = &model.trainer;
+    let trained = splats.as_any().downcast_ref::<TrainedSplats>().context("splats")?;
     let phases: Vec<f64> =
         PHASES.iter().map(|n| summary.phases.iter().find(|p| p.0 == *n).map_or(0.0, |p| p.1)).collect();
-    let trained = summary.elapsed;
-    let trained_cloud = trainer.model.to_cloud();
-    let workload = training_workload(&trained_cloud, &train, &trainer.eval_settings());
+    let trained_seconds = summary.elapsed;
+    // The rasterizer projects through pinholes: distorted captures train on undistorted crops.
+    let loaded = ImageSet::load(dataset.frames(Split::Train))?;
+    let workload = training_workload(trained.cloud(), &loaded.undistorted(), &trained.settings());
     let raster = rasterizer_throughput(100_000);
 
     println!("lucid bench splat{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
@@ -120,10 +124,10 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     }
     println!(
         "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB{note}, SSIM {:.4}, {} Gaussians",
-        random.model.trainer.config.init.random_points,
+        random.splats().config().init.random_points,
         random_last.psnr,
         random_last.ssim,
-        random.model.trainer.model.len()
+        random.splats().cloud().len()
     );
     println!("render time per held-out view: {:.3} s", last.seconds_per_view);
     let total_phase: f64 = phases.iter().sum::<f64>().max(1e-9);
@@ -156,14 +160,14 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     Ok(json!({
         "benchmark": "splat", "dataset": bench.dataset.root.display().to_string(), "scene": bench.dataset.built_in,
         "ceiling": ceiling, "quick": bench.quick, "threads": rayon::current_num_threads(),
-        "curve": curve, "final": last, "steps": trainer.step, "training_seconds": trained,
+        "curve": curve, "final": last, "steps": summary.steps, "training_seconds": trained_seconds,
         "time_shares": names.iter().zip(&phases).map(|(n, t)| (n.to_string(), json!(t / total_phase))).collect::<serde_json::Map<_, _>>(),
-        "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trainer.config,
+        "rasterizer": raster, "rasterizer_trained_cloud": workload, "config": trained.config(),
         "final_val": last_val, "init": "point cloud from the renderer's exact depth (points3d.ply)",
         "random_init": {
-            "init": format!("{} random points in the scene box", random.model.trainer.config.init.random_points),
+            "init": format!("{} random points in the scene box", random.splats().config().init.random_points),
             "curve": random.curve.points, "final": random_last, "final_val": random_val,
-            "gaussians": random.model.trainer.model.len(),
+            "gaussians": random.splats().cloud().len(),
         },
     }))
 }
