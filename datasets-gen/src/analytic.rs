@@ -135,7 +135,7 @@ impl AnalyticScene {
 }
 
 impl ViewRenderer for AnalyticScene {
-    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, _view: u64) -> RenderedView {
+    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, _view: u64) -> Result<RenderedView, String> {
         let k = camera.intrinsics;
         let (w, h) = (k.width as usize, k.height as usize);
         let n = self.samples_per_axis.max(1);
@@ -191,7 +191,7 @@ impl ViewRenderer for AnalyticScene {
             })
             .collect();
         let plane = |k: usize| Image::from_pixels(w, h, rows.iter().flat_map(|r| r.iter().map(|p| p[k])).collect());
-        RenderedView { colour: plane(0), depth: plane(1), normal: plane(2), albedo: plane(3) }
+        Ok(RenderedView { colour: plane(0), depth: plane(1), normal: plane(2), albedo: plane(3) })
     }
 }
 
@@ -208,7 +208,7 @@ mod tests {
         let scene = AnalyticScene::default();
         let pose = look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y);
         let cam = PinholeCamera::new(Intrinsics::from_fov_x(33, 33, 0.5), pose);
-        let view = scene.render(&cam, None, 0);
+        let view = scene.render(&cam, None, 0).unwrap();
         let d = view.depth.get(16, 16);
         assert!((d[0] - 2.5).abs() < 1e-3, "{d:?}");
         let n = view.normal.get(16, 16);
@@ -227,7 +227,7 @@ mod tests {
     fn background_is_transparent() {
         let scene = AnalyticScene::default();
         let pose = Mat4::from_translation(Vec3::new(0.0, 10.0, 0.0)); // looks down −Z, misses everything
-        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose), None, 0);
+        let view = scene.render(&PinholeCamera::new(Intrinsics::from_fov_x(8, 8, 0.2), pose), None, 0).unwrap();
         assert!(view.colour.pixels().iter().all(|p| p[3] == 0.0));
     }
 }

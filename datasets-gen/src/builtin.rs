@@ -211,7 +211,7 @@ fn measure_ceiling(
     let mut psnr = Vec::new();
     for (k, frame) in frames.iter().enumerate() {
         // Streams no view of the set uses (those are numbered split · 10⁶ + index).
-        let view = reference.render(&frame.camera, None, (1 << 40) + k as u64);
+        let view = reference.render(&frame.camera, None, (1 << 40) + k as u64).map_err(GenError::Spec)?;
         let long = spec.tone_curve.map_image(&view.colour, spec.exposure);
         let long =
             composite_over(&long.map(|p| [srgb_encode(p[0]), srgb_encode(p[1]), srgb_encode(p[2]), p[3]]), [1.0; 3]);

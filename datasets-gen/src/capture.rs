@@ -131,7 +131,7 @@ pub fn generate_capture(
     };
     let to_do: Vec<usize> = (0..spec.images).filter(|&i| !finished(i)).collect();
     for (done, &i) in to_do.iter().enumerate() {
-        let view = renderer.render(&PinholeCamera::new(k, poses[i]), None, i as u64);
+        let view = renderer.render(&PinholeCamera::new(k, poses[i]), None, i as u64).map_err(GenError::Spec)?;
         let grey = WriteOptions { single_channel: true, ..Default::default() };
         write_image_with(root.join(format!("depth/{}.exr", name(i))), &view.depth, grey)?;
         // A photograph has no alpha: the sky is part of it.

@@ -83,7 +83,7 @@ fn render_pattern(
     let pattern = projector.with_pixels(pixels).ok_or("the projector's pose is degenerate")?;
     let lit_scene = scene.relit(vec![Light::Projector(Box::new(pattern))])?;
     let settings = RenderSettings { seed, ..*settings };
-    Ok(render(&lit_scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {}).colour)
+    Ok(render(&lit_scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {}).map_err(|e| e.to_string())?.colour)
 }
 
 fn rgb(p: [f32; 4]) -> Vec3 {
@@ -233,7 +233,8 @@ pub fn reciprocal_render(
 ) -> Result<Image, String> {
     let light = Projector::from_camera(camera, Vec3::ONE).ok_or("the camera's pose is degenerate")?;
     let lit_scene = scene.relit(vec![Light::Projector(Box::new(light))])?;
-    Ok(render(&lit_scene, &RenderCamera::Pinhole(projector.camera()), settings, &|_| {}).colour)
+    let camera = RenderCamera::Pinhole(projector.camera());
+    Ok(render(&lit_scene, &camera, settings, &|_| {}).map_err(|e| e.to_string())?.colour)
 }
 
 #[cfg(test)]

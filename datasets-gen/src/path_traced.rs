@@ -28,17 +28,17 @@ impl ViewRenderer for PathTracedScene {
     fn render_lit(&self, camera: &PinholeCamera, lights: &[Light], view: u64) -> Result<RenderedView, String> {
         let scene = self.scene.relit(lights.to_vec())?;
         let settings = RenderSettings { seed: self.seed(view), ..self.settings };
-        let out = render(&scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {});
+        let out = render(&scene, &RenderCamera::Pinhole(*camera), &settings, &|_| {}).map_err(|e| e.to_string())?;
         Ok(RenderedView { colour: out.colour, depth: out.depth, normal: out.normal, albedo: out.albedo })
     }
 
-    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> RenderedView {
+    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> Result<RenderedView, String> {
         let settings = RenderSettings { seed: self.seed(view), ..self.settings };
         let camera = match lens {
             None => RenderCamera::Pinhole(*camera),
             Some(l) => RenderCamera::ThinLens(ThinLensCamera::new(*camera, l.aperture_radius, l.focus_distance)),
         };
-        let out = render(&self.scene, &camera, &settings, &|_| {});
-        RenderedView { colour: out.colour, depth: out.depth, normal: out.normal, albedo: out.albedo }
+        let out = render(&self.scene, &camera, &settings, &|_| {}).map_err(|e| e.to_string())?;
+        Ok(RenderedView { colour: out.colour, depth: out.depth, normal: out.normal, albedo: out.albedo })
     }
 }

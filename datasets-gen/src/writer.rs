@@ -46,8 +46,8 @@ pub struct Lens {
 pub trait ViewRenderer: Sync {
     /// Renders the view that `camera` sees, through `lens` if given (else a pinhole); `view`
     /// numbers the views of a dataset so that stochastic renderers can give each its own
-    /// random streams.
-    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> RenderedView;
+    /// random streams. An error says why the scene cannot be rendered (before any work).
+    fn render(&self, camera: &PinholeCamera, lens: Option<Lens>, view: u64) -> Result<RenderedView, String>;
 
     /// Renders the view under other lights than the scene's own (OLAT and relighting ground
     /// truth); renderers that cannot relight say why.
@@ -330,7 +330,7 @@ pub fn generate_dataset(
                     .render_lit(&camera, &olat.lights(lighting), view_number ^ (salt << 32))
                     .map_err(GenError::Spec)?
             }
-            _ => renderer.render(&camera, frame.lens, view_number),
+            _ => renderer.render(&camera, frame.lens, view_number).map_err(GenError::Spec)?,
         };
         let [png, exr, depth, normal, albedo] = frame.files();
         // The PNG last: a frame counts as finished only when all its files exist.

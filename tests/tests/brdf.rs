@@ -85,7 +85,7 @@ fn a_neural_brdf_fitted_to_a_table_renders_the_table_s_image() {
     let render = |ball: &str| {
         let loaded = lucid_trace::parse_scene(&sphere_scene(ball), &dir.path().join("s.toml")).unwrap();
         let settings = lucid_trace::RenderSettings { spp: 256, ..loaded.settings };
-        lucid_trace::render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
+        lucid_trace::render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour
     };
     let table = render("type = \"measured\"\nfile = \"phong.binary\"");
     let neural = render("type = \"neural\"\nfile = \"phong.json\"");

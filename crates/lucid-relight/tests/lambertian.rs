@@ -60,11 +60,11 @@ fn constant_environment_relighting_matches_the_path_traced_render() {
                 .scene
                 .relit(vec![Light::Directional { direction: d, irradiance: Vec3::splat(irradiance) }])
                 .unwrap();
-            render(&scene, &loaded.camera, &loaded.settings, &|_| {}).colour
+            render(&scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour
         })
         .collect();
     let scene = loaded.scene.relit(vec![Light::ConstantEnvironment { radiance: Vec3::ONE }]).unwrap();
-    let truth = render(&scene, &loaded.camera, &loaded.settings, &|_| {}).colour;
+    let truth = render(&scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour;
     let env = Image::filled(64, 32, [1.0, 1.0, 1.0, 1.0]);
     let prep = |i: &Image| prepare_for_metrics(i, [0.0; 3], MetricSpace::Srgb);
     for weighting in [Weighting::CellIntegral, Weighting::PointSample, Weighting::Barycentric] {

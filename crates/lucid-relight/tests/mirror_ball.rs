@@ -63,7 +63,7 @@ file = "{}"
         env.display()
     );
     let loaded = parse_scene(&text, std::path::Path::new("ball.toml")).unwrap();
-    let ball = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).colour;
+    let ball = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour;
     let map = mirror_ball_to_latlong(&ball, 128);
     // Each patch's mean direction in the converted map.
     for (channel, expected) in [(0, Vec3::X), (1, Vec3::Y), (2, -Vec3::X)] {

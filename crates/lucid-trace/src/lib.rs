@@ -32,6 +32,6 @@ mod visible;
 
 pub use integrator::{LightStrategy, PathTracer};
 pub use material::{Material, Texture};
-pub use render::{Integrator, RenderCamera, RenderOutput, RenderSettings, render};
+pub use render::{Integrator, RenderCamera, RenderOutput, RenderSettings, Unsupported, render};
 pub use scene::{Emission, Scene, SceneBuilder};
 pub use scene_file::{LoadedScene, SceneFileError, load_scene, parse_scene};

@@ -78,16 +78,25 @@ pub enum Integrator {
 
 impl Integrator {
     /// Every integrator with the name the scene file and `--integrator` use.
-    pub const ALL: [(Integrator, &'static str); 8] = [
-        (Integrator::Path, "path"),
-        (Integrator::Bdpt, "bdpt"),
-        (Integrator::LightTracing, "light-tracing"),
-        (Integrator::Sppm(PhotonMapping::DEFAULT), "sppm"),
-        (Integrator::Vpl(InstantRadiosity::DEFAULT), "vpl"),
-        (Integrator::Lightcuts(Lightcuts::DEFAULT), "lightcuts"),
-        (Integrator::IrradianceCache(IrradianceCaching::DEFAULT), "irradiance-cache"),
-        (Integrator::Pssmlt(Metropolis::DEFAULT), "pssmlt"),
-    ];
+    pub const ALL: [(Integrator, &'static str); 8] = {
+        let all = [
+            Integrator::Path,
+            Integrator::Bdpt,
+            Integrator::LightTracing,
+            Integrator::Sppm(PhotonMapping::DEFAULT),
+            Integrator::Vpl(InstantRadiosity::DEFAULT),
+            Integrator::Lightcuts(Lightcuts::DEFAULT),
+            Integrator::IrradianceCache(IrradianceCaching::DEFAULT),
+            Integrator::Pssmlt(Metropolis::DEFAULT),
+        ];
+        let mut named = [(Integrator::Path, ""); 8];
+        let mut k = 0;
+        while k < all.len() {
+            named[k] = (all[k], all[k].name());
+            k += 1;
+        }
+        named
+    };
 
     /// The integrator called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
@@ -95,11 +104,17 @@ impl Integrator {
     }
 
     /// Its name.
-    pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(i, _)| std::mem::discriminant(i) == std::mem::discriminant(&self))
-            .map_or("path", |(_, n)| n)
+    pub const fn name(self) -> &'static str {
+        match self {
+            Integrator::Path => "path",
+            Integrator::Bdpt => "bdpt",
+            Integrator::LightTracing => "light-tracing",
+            Integrator::Sppm(_) => "sppm",
+            Integrator::Vpl(_) => "vpl",
+            Integrator::Lightcuts(_) => "lightcuts",
+            Integrator::IrradianceCache(_) => "irradiance-cache",
+            Integrator::Pssmlt(_) => "pssmlt",
+        }
     }
 
     /// The names, for messages.
@@ -107,7 +122,7 @@ impl Integrator {
         Self::ALL.iter().map(|(_, n)| *n).collect::<Vec<_>>().join(", ")
     }
 
-    /// Whether this integrator can render `scene`; [`render`] panics on a scene it cannot.
+    /// Whether this integrator can render `scene`; [`render`] refuses a scene it cannot.
     pub fn supports(self, scene: &Scene) -> Result<(), String> {
         match self {
             Integrator::Path => Ok(()),
@@ -175,10 +190,24 @@ pub fn render(
     camera: &RenderCamera,
     settings: &RenderSettings,
     progress: &(dyn Fn(usize) + Sync),
+) -> Result<RenderOutput, Unsupported> {
+    settings.integrator.supports(scene).map_err(Unsupported)?;
+    Ok(render_supported(scene, camera, settings, progress))
+}
+
+/// Why an integrator cannot render a scene (the message names the integrator and what in the
+/// scene it does not handle).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct Unsupported(pub String);
+
+/// [`render`] of a scene the integrator is known to support.
+pub(crate) fn render_supported(
+    scene: &Scene,
+    camera: &RenderCamera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(usize) + Sync),
 ) -> RenderOutput {
-    if let Err(e) = settings.integrator.supports(scene) {
-        panic!("{e}");
-    }
     match settings.integrator {
         Integrator::Path => render_paths(scene, camera, settings, progress),
         Integrator::Bdpt => render_bidirectional(scene, camera, settings, Strategies::All, progress),

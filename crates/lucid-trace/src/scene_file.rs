@@ -506,6 +506,15 @@ impl Builder<'_> {
                 Err(self.invalid(format!("{key}.{name}"), "must be in 3..=4096"))
             }
         };
+        self.shape_keys(key, s)?;
+        let knot = |name: &str, v: Option<u32>, default: u32| -> Result<u32, SceneFileError> {
+            let v = v.unwrap_or(default);
+            if (1..=1024).contains(&v) {
+                Ok(v)
+            } else {
+                Err(self.invalid(format!("{key}.{name}"), "must be in 1..=1024"))
+            }
+        };
         let mesh: TriangleMesh = match s.kind.as_str() {
             "sphere" => {
                 let r = positive("radius", s.radius, 1.0)?;
@@ -567,13 +576,29 @@ impl Builder<'_> {
                 count("sides", s.sides, 32)?,
             ),
             "torus_knot" => procedural::torus_knot(
-                s.p.unwrap_or(2).max(1),
-                s.q.unwrap_or(3).max(1),
+                knot("p", s.p, 2)?,
+                knot("q", s.q, 3)?,
                 positive("radius", s.radius, 1.0)?,
                 positive("minor_radius", s.minor_radius, 0.15)?,
                 count("segments", s.segments, 256)?,
                 count("sides", s.sides, 16)?,
             ),
+            other => unreachable!("shape_keys refuses the shape {other:?}"),
+        };
+        builder.mesh_with_medium(&mesh.transformed(&m), material, emission, interior);
+        Ok(())
+    }
+
+    /// Refuses an unknown shape type, and a parameter the shape does not take (a `radius` on a
+    /// quad), naming the key and the shape's own parameters.
+    fn shape_keys(&self, key: &str, s: &ShapeSection) -> Result<(), SceneFileError> {
+        let allowed: &[&str] = match s.kind.as_str() {
+            "quad" | "cube" => &[],
+            "sphere" => &["radius"],
+            "mesh" => &["file"],
+            "torus" => &["radius", "minor_radius", "segments", "sides"],
+            "torus_knot" => &["p", "q", "radius", "minor_radius", "segments", "sides"],
+            "hair" => &["groom", "fibres", "segments", "length", "curl", "radius", "seed"],
             other => {
                 return Err(self.invalid(
                     format!("{key}.type"),
@@ -581,8 +606,30 @@ impl Builder<'_> {
                 ));
             }
         };
-        builder.mesh_with_medium(&mesh.transformed(&m), material, emission, interior);
-        Ok(())
+        let given = [
+            ("file", s.file.is_some()),
+            ("radius", s.radius.is_some()),
+            ("minor_radius", s.minor_radius.is_some()),
+            ("p", s.p.is_some()),
+            ("q", s.q.is_some()),
+            ("segments", s.segments.is_some()),
+            ("sides", s.sides.is_some()),
+            ("groom", s.groom.is_some()),
+            ("fibres", s.fibres.is_some()),
+            ("length", s.length.is_some()),
+            ("curl", s.curl.is_some()),
+            ("seed", s.seed.is_some()),
+        ];
+        match given.iter().find(|(name, set)| *set && !allowed.contains(name)) {
+            None => Ok(()),
+            Some((name, _)) => {
+                let takes = if allowed.is_empty() { "none".to_string() } else { allowed.join(", ") };
+                Err(self.invalid(
+                    format!("{key}.{name}"),
+                    format!("a {} takes no {name} (its parameters: {takes})", s.kind),
+                ))
+            }
+        }
     }
 
     fn point_grid(&self, key: &str, l: &LightSection) -> Result<PointLightGrid, SceneFileError> {

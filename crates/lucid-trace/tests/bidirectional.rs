@@ -22,7 +22,7 @@ fn scene(name: &str, width: u32, height: u32) -> LoadedScene {
 }
 
 fn render_with(loaded: &LoadedScene, integrator: Integrator, settings: RenderSettings) -> lucid_image::Image {
-    render(&loaded.scene, &loaded.camera, &RenderSettings { integrator, ..settings }, &|_| {}).colour
+    render(&loaded.scene, &loaded.camera, &RenderSettings { integrator, ..settings }, &|_| {}).unwrap().colour
 }
 
 fn mean(image: &lucid_image::Image) -> f32 {

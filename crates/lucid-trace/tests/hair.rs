@@ -79,7 +79,7 @@ radiance = [1.0, 1.0, 1.0]
 fn render_mean(text: &str, integrator: Integrator, spp: u32) -> (f64, f64) {
     let loaded = parse_scene(text, std::path::Path::new("hair.toml")).unwrap();
     let settings = RenderSettings { spp, integrator, ..loaded.settings };
-    let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap();
     let values: Vec<f64> = out.colour.pixels().iter().map(|p| p[1] as f64).collect();
     let mean = values.iter().sum::<f64>() / values.len() as f64;
     let worst = values.iter().fold(0.0f64, |w, v| w.max((v - 1.0).abs()));
@@ -104,7 +104,7 @@ fn non_absorbing_hair_in_a_white_furnace_returns_all_light() {
     let loaded =
         parse_scene(&furnace_scene("type = \"hair\"\ncolor = [0.8, 0.5, 0.3]"), std::path::Path::new("hair.toml"))
             .unwrap();
-    let out = render(&loaded.scene, &loaded.camera, &RenderSettings { spp: 8, ..loaded.settings }, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &RenderSettings { spp: 8, ..loaded.settings }, &|_| {}).unwrap();
     let centre = out.colour.get(12, 12);
     assert!(centre[0] > centre[1] && centre[1] > centre[2] && centre[0] < 1.0, "{centre:?}");
 }
@@ -125,7 +125,7 @@ fn light_paths_see_the_hair_the_camera_paths_see() {
             .map(|seed| {
                 let loaded = parse_scene(&text, std::path::Path::new("hair.toml")).unwrap();
                 let settings = RenderSettings { spp: 16, seed, integrator, ..loaded.settings };
-                render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour.mean()[0]
+                render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour.mean()[0]
             })
             .collect();
         let mean = values.iter().sum::<f64>() / seeds as f64;

@@ -39,7 +39,7 @@ fn convex_diffuse_object_in_a_uniform_environment_reflects_albedo_times_radiance
             path: PathTracer { max_depth: 16, rr_depth: 5, hide_emitters: true, ..PathTracer::default() },
             integrator: Integrator::Path,
         };
-        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
         let (mut sum, mut n) = (0.0f64, 0);
         for p in out.colour.pixels() {
             if p[3] == 1.0 {
@@ -70,7 +70,7 @@ fn point_light_on_a_plane_follows_the_inverse_square_law() {
         path: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
         integrator: Integrator::Path,
     };
-    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
     let expected = 0.8 / std::f32::consts::PI * 10.0 / 4.0;
     let centre = out.colour.get(4, 4)[0];
     assert!((centre - expected).abs() < 1e-3 * expected, "{centre} vs {expected}");
@@ -84,7 +84,7 @@ fn point_light_on_a_plane_follows_the_inverse_square_law() {
             Intrinsics::from_fov_x(9, 9, 0.001),
             look_at(Vec3::new(x, 0.0, 5.0), Vec3::new(x, 0.0, 0.0), Vec3::Y),
         );
-        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
         let r2 = x * x + 4.0;
         let expected = 0.8 / std::f32::consts::PI * 10.0 * (2.0 / r2.sqrt()) / r2;
         let got = out.colour.get(4, 4)[0];
@@ -107,7 +107,7 @@ fn cornell_box_matches_the_reference_mean() {
         Intrinsics::from_fov_x(128, 128, cam.intrinsics.fov_x()),
         cam.camera_to_world,
     ));
-    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap();
     let m = mean_rgb(&out.colour);
     let mean = (m.x + m.y + m.z) / 3.0;
     assert!((mean - 0.1470).abs() < 0.002, "Cornell box mean {mean} (reference 0.1470 ± 0.0003)");
@@ -139,10 +139,10 @@ fn renders_do_not_depend_on_the_thread_count() {
     let settings = RenderSettings { spp: 4, ..loaded.settings };
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
-    let a = one.install(|| render(&loaded.scene, &camera, &settings, &|_| {}));
-    let b = three.install(|| render(&loaded.scene, &camera, &settings, &|_| {}));
+    let a = one.install(|| render(&loaded.scene, &camera, &settings, &|_| {}).unwrap());
+    let b = three.install(|| render(&loaded.scene, &camera, &settings, &|_| {}).unwrap());
     assert_eq!(a.colour, b.colour);
-    let c = render(&loaded.scene, &camera, &RenderSettings { seed: settings.seed + 1, ..settings }, &|_| {});
+    let c = render(&loaded.scene, &camera, &RenderSettings { seed: settings.seed + 1, ..settings }, &|_| {}).unwrap();
     assert_ne!(a.colour, c.colour, "the seed matters");
 }
 
@@ -184,7 +184,7 @@ fn diffuse_plane_under_an_environment_map_reflects_its_cosine_weighted_integral(
         path: PathTracer { max_depth: 2, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
         integrator: Integrator::Path,
     };
-    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
     let got = mean_rgb(&out.colour);
     assert!(((got - expected) / expected).abs().max_element() < 0.01, "{got} vs {expected}");
 }
@@ -202,7 +202,7 @@ fn light_sampling_bsdf_sampling_and_mis_converge_to_the_same_image() {
     let mean_for = |strategy: LightStrategy, spp: u32| {
         let settings =
             RenderSettings { spp, seed: 11, path: PathTracer { strategy, ..loaded.settings.path }, ..loaded.settings };
-        let m = mean_rgb(&render(&loaded.scene, &camera, &settings, &|_| {}).colour);
+        let m = mean_rgb(&render(&loaded.scene, &camera, &settings, &|_| {}).unwrap().colour);
         (m.x + m.y + m.z) / 3.0
     };
     let mis = mean_for(LightStrategy::Mis, 256);
@@ -245,7 +245,7 @@ fn white_furnace_for_every_lossless_bsdf() {
             path: PathTracer { max_depth: 1000, rr_depth: 1000, hide_emitters: false, ..PathTracer::default() },
             integrator: Integrator::Path,
         };
-        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+        let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
         let got = mean_rgb(&out.colour);
         assert!((got - Vec3::ONE).abs().max_element() < 0.01, "{name}: {got}");
     }
@@ -265,7 +265,7 @@ fn the_caustic_scene_focuses_light_under_the_glass_sphere() {
     let cam = PinholeCamera::new(Intrinsics::from_fov_x(128, 96, cam.intrinsics.fov_x()), cam.camera_to_world);
     loaded.camera = RenderCamera::Pinhole(cam);
     loaded.settings.spp = 128;
-    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap();
     let (light, centre) = (Vec3::new(0.3, 0.6, 2.6), Vec3::new(0.0, 0.0, 0.5));
     let focus = centre + (centre - light) * (centre.z / (light.z - centre.z));
     let window = |world: Vec3| {

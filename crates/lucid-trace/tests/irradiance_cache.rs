@@ -19,7 +19,7 @@ fn scene(name: &str, width: u32, height: u32) -> LoadedScene {
 
 fn run(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u64) -> lucid_image::Image {
     let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
-    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
+    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour
 }
 
 fn grey(p: [f32; 4]) -> f64 {

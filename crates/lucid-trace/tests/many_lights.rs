@@ -25,7 +25,7 @@ fn scene(name: &str, width: u32, height: u32) -> LoadedScene {
 
 fn run(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u64) -> RenderOutput {
     let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
-    render(&loaded.scene, &loaded.camera, &settings, &|_| {})
+    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap()
 }
 
 fn grey(p: [f32; 4]) -> f64 {

@@ -19,7 +19,7 @@ fn render_with(ball: &str, dir: &std::path::Path) -> Image {
     let text = format!("{}\n[materials.ball]\n{ball}\n", scene());
     let loaded = parse_scene(&text, &dir.join("scene.toml")).unwrap();
     let settings = RenderSettings { spp: 256, seed: 4, ..loaded.settings };
-    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
+    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour
 }
 
 /// The ratio of `a`'s mean to `b`'s, and the largest relative difference of 8×8 block means

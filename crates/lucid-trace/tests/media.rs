@@ -37,7 +37,7 @@ fn absorbing_slab_transmits_exp_of_minus_sigma_a_times_thickness() {
         path: PathTracer { max_depth: 8, rr_depth: 5, hide_emitters: false, ..PathTracer::default() },
         integrator: Integrator::Path,
     };
-    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {});
+    let out = render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap();
     let got = mean(&out.colour);
     let expected = (-sigma_a).exp();
     assert!(((got - expected) / expected).abs().max_element() < 0.02, "{got} vs {expected}");
@@ -59,7 +59,7 @@ fn smoke_sphere_mean(sigma_s: Vec3, g: f32, spp: u32) -> Vec3 {
         path: PathTracer { max_depth: 100_000, rr_depth: 64, hide_emitters: false, ..PathTracer::default() },
         integrator: Integrator::Path,
     };
-    mean(&render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).colour)
+    mean(&render(&scene, &RenderCamera::Pinhole(cam), &settings, &|_| {}).unwrap().colour)
 }
 
 #[test]
@@ -73,4 +73,45 @@ fn scattering_sphere_without_absorption_in_a_uniform_environment_is_invisible() 
     // (unbiased, but noisier in the densest channel: ±2% measured at this sample count).
     let got = smoke_sphere_mean(Vec3::new(1.0, 2.0, 4.0), 0.3, 8192);
     assert!((got - Vec3::splat(0.8)).abs().max_element() < 0.04, "coloured: {got}");
+}
+
+/// An integrator that does not follow media is refused before any work starts (no row is
+/// rendered), with an error naming it and what it does not handle; every integrator's name
+/// is its own.
+#[test]
+fn an_integrator_that_cannot_render_the_scene_is_refused_before_rendering() {
+    let mut b = SceneBuilder::new();
+    let boundary = b.material(Material::Interface);
+    let fog = b.medium(HomogeneousMedium {
+        sigma_a: Vec3::splat(0.1),
+        sigma_s: Vec3::splat(0.5),
+        phase: HenyeyGreenstein { g: 0.0 },
+    });
+    b.mesh_with_medium(&cube(), boundary, None, Some(fog));
+    b.light(Light::Point { position: Vec3::new(0.0, 0.0, 3.0), intensity: Vec3::ONE });
+    let scene = b.build();
+    let cam =
+        PinholeCamera::new(Intrinsics::from_fov_x(4, 4, 0.5), look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y));
+    let rows = std::sync::atomic::AtomicUsize::new(0);
+    let count = |_: usize| {
+        rows.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    };
+    for (integrator, name) in Integrator::ALL {
+        assert_eq!(integrator.name(), name);
+        let settings = RenderSettings { spp: 1, seed: 1, path: PathTracer::default(), integrator };
+        let before = rows.load(std::sync::atomic::Ordering::Relaxed);
+        let result = render(&scene, &RenderCamera::Pinhole(cam), &settings, &count);
+        let rendered = rows.load(std::sync::atomic::Ordering::Relaxed) - before;
+        match integrator {
+            Integrator::Path | Integrator::Pssmlt(_) => assert!(result.is_ok() && rendered > 0, "{name}"),
+            _ => {
+                let Err(err) = result else { panic!("{name} rendered a scene with media") };
+                let err = err.to_string();
+                assert!(err.contains(name) && err.contains("participating media"), "{err}");
+                assert_eq!(rendered, 0, "{name} rendered rows before refusing");
+            }
+        }
+    }
+    let names: std::collections::BTreeSet<&str> = Integrator::ALL.iter().map(|(_, n)| *n).collect();
+    assert_eq!(names.len(), Integrator::ALL.len());
 }

@@ -19,7 +19,7 @@ fn scene(name: &str, width: u32, height: u32) -> LoadedScene {
 
 fn sppm(loaded: &LoadedScene, passes: u32, seed: u64, params: PhotonMapping) -> lucid_image::Image {
     let settings = RenderSettings { spp: passes, seed, integrator: Integrator::Sppm(params), ..loaded.settings };
-    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour
+    render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour
 }
 
 fn grey(p: [f32; 4]) -> f64 {
@@ -56,7 +56,7 @@ fn sppm_converges_to_the_path_tracer_as_its_radii_shrink() {
         ..loaded.settings
     };
     let hidden_scene = LoadedScene { settings: hidden, ..loaded.clone() };
-    let reference = render(&loaded.scene, &loaded.camera, &hidden, &|_| {}).colour;
+    let reference = render(&loaded.scene, &loaded.camera, &hidden, &|_| {}).unwrap().colour;
     let mut errors = Vec::new();
     for passes in [4, 16, 64] {
         let image = sppm(&hidden_scene, passes, 7, PhotonMapping::DEFAULT);

@@ -74,7 +74,7 @@ intensity = [1.0, 1.0, 1.0]
 fn a_projected_image_lands_on_a_wall_with_the_inverse_square_and_cosine_laws() {
     let dir = tempfile::tempdir().unwrap();
     let loaded = parse_scene(&scene(dir.path(), false), &dir.path().join("scene.toml")).unwrap();
-    let image = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).colour;
+    let image = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour;
     let slide = lucid_image::read_image(dir.path().join("slide.pfm")).unwrap();
     let tan = (20f32).to_radians().tan();
     let mut worst = 0f32;
@@ -101,7 +101,7 @@ fn a_projected_image_lands_on_a_wall_with_the_inverse_square_and_cosine_laws() {
     // A single lit pixel: the rest of the wall is dark.
     let one = scene(dir.path(), false).replace("image = \"slide.pfm\"", "image = \"slide.pfm\"\npixel = [1, 0]");
     let loaded = parse_scene(&one, &dir.path().join("scene.toml")).unwrap();
-    let image = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).colour;
+    let image = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour;
     assert!(image.get(24, 8)[0] > 0.1 && image.get(8, 8)[0] == 0.0 && image.get(24, 24)[0] == 0.0);
 }
 
@@ -111,7 +111,7 @@ fn bidirectional_integrators_render_projector_light_as_the_path_tracer_does() {
     let loaded = parse_scene(&scene(dir.path(), true), &dir.path().join("scene.toml")).unwrap();
     let mean = |integrator: Integrator, spp: u32| {
         let settings = RenderSettings { integrator, spp, seed: 3, ..loaded.settings };
-        let m = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour.mean();
+        let m = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).unwrap().colour.mean();
         (m[0] + m[1] + m[2]) / 3.0
     };
     let path = mean(Integrator::Path, 256);

@@ -119,6 +119,24 @@ fn mistakes_name_the_file_and_key() {
         ),
         (
             scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"quad\"\nmaterial = \"a\"\nradius = 2.0",
+            ),
+            &["shapes[0].radius", "a quad takes no radius"],
+        ),
+        (
+            scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"sphere\"\nmaterial = \"a\"\nsides = 8",
+            ),
+            &["shapes[0].sides", "its parameters: radius"],
+        ),
+        (
+            scene(
+                "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"torus_knot\"\nmaterial = \"a\"\np = 0",
+            ),
+            &["shapes[0].p", "1..=1024"],
+        ),
+        (
+            scene(
                 "[materials.a]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n[[shapes]]\ntype = \"quad\"\nmaterial = \"a\"\nscale = 0.0",
             ),
             &["shapes[0].scale", "zero"],
@@ -207,7 +225,7 @@ fn every_shipped_scene_loads_and_renders_finite_pixels() {
         let small = lucid_scene::Intrinsics::from_fov_x(24, 16, pinhole.intrinsics.fov_x());
         let camera = RenderCamera::Pinhole(lucid_scene::PinholeCamera::new(small, pinhole.camera_to_world));
         let settings = lucid_trace::RenderSettings { spp: 2, ..loaded.settings };
-        let out = lucid_trace::render(&loaded.scene, &camera, &settings, &|_| {});
+        let out = lucid_trace::render(&loaded.scene, &camera, &settings, &|_| {}).unwrap();
         assert!(out.colour.is_finite(), "{}", path.display());
         let m = out.colour.mean();
         assert!(m[0] + m[1] + m[2] > 0.01, "{} renders black", path.display());

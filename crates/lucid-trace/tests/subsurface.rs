@@ -46,7 +46,7 @@ radiance = [1.0, 1.0, 1.0]
 /// Mean colour of the pixels wholly inside the sphere's silhouette.
 fn sphere_mean(text: &str, spp: u32) -> [f64; 3] {
     let loaded = parse_scene(text, std::path::Path::new("s.toml")).unwrap();
-    let out = render(&loaded.scene, &loaded.camera, &RenderSettings { spp, ..loaded.settings }, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &RenderSettings { spp, ..loaded.settings }, &|_| {}).unwrap();
     let (w, h) = (out.colour.width(), out.colour.height());
     let inside = |x: usize, y: usize| out.depth.get(x, y)[0] > 0.0;
     let (mut sum, mut n) = ([0.0f64; 3], 0usize);

@@ -212,7 +212,7 @@ fn generated_dataset_reads_back_with_matching_images() {
     let frame = &ds.frames(Split::Test)[1];
     // The HDR image on disk is what the renderer makes for the pose in the JSON.
     let hdr = lucid_image::read_image(frame.extras.hdr_path.as_ref().unwrap()).unwrap();
-    let again = scene.render(&frame.camera, None, 0).colour;
+    let again = scene.render(&frame.camera, None, 0).unwrap().colour;
     let diff = hdr.pixels().iter().zip(again.pixels()).map(|(a, b)| (a[0] - b[0]).abs()).fold(0.0, f32::max);
     assert!(diff < 1e-5, "max difference {diff}");
     // The scene is in view: some pixels are covered, some are background.

@@ -40,7 +40,7 @@ irradiance = [3.0, 3.0, 3.0]
         eye.x, eye.y, eye.z, light.x, light.y, light.z
     );
     let loaded = parse_scene(&text, std::path::Path::new("ball.toml")).unwrap();
-    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {});
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap();
     let RenderCamera::Pinhole(camera) = loaded.camera else { panic!("pinhole expected") };
     (out.colour, out.depth, camera)
 }

@@ -69,7 +69,7 @@ file = "{}"
         map_file.display()
     );
     let loaded = parse_scene(&text, std::path::Path::new("sun.toml")).unwrap();
-    render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).colour
+    render(&loaded.scene, &loaded.camera, &loaded.settings, &|_| {}).unwrap().colour
 }
 
 #[test]

@@ -164,7 +164,7 @@ pub(crate) fn render(
 
     // 3. Coverage and the auxiliary buffers from a short path-traced pass.
     let aux_settings = RenderSettings { spp: settings.spp.clamp(1, 4), integrator: Integrator::Path, ..*settings };
-    let mut out = crate::render::render(scene, camera, &aux_settings, &|_| {});
+    let mut out = crate::render::render_supported(scene, camera, &aux_settings, &|_| {});
     rays += out.rays;
     let scale = (b * (w * h) as f64 / total_mutations as f64) as f32;
     let pixels = (0..w * h)

@@ -78,13 +78,16 @@ impl Accumulator {
 
 /// Renders `integrator` in passes until `seconds` of render time have passed: the average
 /// image, its samples per pixel and the curve of (seconds, relative MSE) after each pass.
+/// An image, the samples per pixel it took, and its error curve (seconds, relative MSE).
+type Converged = (Image, u64, Vec<(f64, f64)>);
+
 fn progressive(
     loaded: &LoadedScene,
     integrator: Integrator,
     seconds: f64,
     reference: Option<&Image>,
     seed: u64,
-) -> (Image, u64, Vec<(f64, f64)>) {
+) -> anyhow::Result<Converged> {
     // Photon mapping is consistent, not unbiased; Metropolis and the irradiance cache pay a
     // start-up (bootstrap, cache) per render: all three render from scratch.
     if let Integrator::Sppm(_) | Integrator::Pssmlt(_) | Integrator::IrradianceCache(_) = integrator {
@@ -98,7 +101,7 @@ fn progressive(
     let mut pass = 0u64;
     while elapsed < seconds {
         let pass_seed = lucid_trace::sampling::mix(seed ^ (pass + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        let (image, took) = timed_render(loaded, integrator, spp, pass_seed);
+        let (image, took) = timed_render(loaded, integrator, spp, pass_seed)?;
         elapsed += took;
         acc.add(&image, spp);
         if let Some(r) = reference {
@@ -112,7 +115,7 @@ fn progressive(
         let left = ((seconds - elapsed) / per_sample).max(1.0);
         spp = next.min(left).round().clamp(1.0, 1_000_000.0) as u32;
     }
-    (acc.image(), acc.samples, curve)
+    Ok((acc.image(), acc.samples, curve))
 }
 
 /// A consistent but biased integrator (photon mapping) cannot average independent renders, and
@@ -125,27 +128,27 @@ fn consistent(
     seconds: f64,
     reference: Option<&Image>,
     seed: u64,
-) -> (Image, u64, Vec<(f64, f64)>) {
+) -> anyhow::Result<Converged> {
     let mut curve = Vec::new();
     let mut spp = 1u32;
     loop {
-        let (image, took) = timed_render(loaded, integrator, spp, seed);
+        let (image, took) = timed_render(loaded, integrator, spp, seed)?;
         if let Some(r) = reference {
             curve.push((took, relative_mse(&image, r)));
         }
         if 2.0 * took > seconds || spp >= 1 << 20 {
-            return (image, spp as u64, curve);
+            return Ok((image, spp as u64, curve));
         }
         spp *= 2;
     }
 }
 
 /// One render's colour and its wall time in seconds.
-fn timed_render(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u64) -> (Image, f64) {
+fn timed_render(loaded: &LoadedScene, integrator: Integrator, spp: u32, seed: u64) -> anyhow::Result<(Image, f64)> {
     let settings = RenderSettings { spp, seed, integrator, ..loaded.settings };
     let started = Instant::now();
-    let image = render(&loaded.scene, &loaded.camera, &settings, &|_| {}).colour;
-    (image, started.elapsed().as_secs_f64())
+    let image = render(&loaded.scene, &loaded.camera, &settings, &|_| {})?.colour;
+    Ok((image, started.elapsed().as_secs_f64()))
 }
 
 pub fn dimensions(camera: &RenderCamera) -> (usize, usize) {
@@ -243,7 +246,7 @@ fn reference(bench: &IntegratorBench, name: &str, loaded: &LoadedScene) -> anyho
         integrator.name(),
         exr.display()
     );
-    let (image, samples, _) = progressive(loaded, integrator, seconds, None, 0x0005_EED0_F4EF);
+    let (image, samples, _) = progressive(loaded, integrator, seconds, None, 0x0005_EED0_F4EF)?;
     std::fs::create_dir_all(&bench.cache).with_context(|| format!("creating {}", bench.cache.display()))?;
     lucid_image::write_image(&exr, &image)?;
     let info = json!({"integrator": integrator.name(), "spp": samples, "seconds": seconds});
@@ -269,7 +272,7 @@ pub fn run(bench: &IntegratorBench) -> anyhow::Result<Vec<Value>> {
                 println!("{name:<10} {:<14} skipped: {e}", integrator.name());
                 continue;
             }
-            let (image, samples, curve) = progressive(&loaded, integrator, bench.seconds, Some(&reference), 1);
+            let (image, samples, curve) = progressive(&loaded, integrator, bench.seconds, Some(&reference), 1)?;
             let mean = image.mean();
             rows.push((integrator, samples, curve, (mean[0] + mean[1] + mean[2]) / 3.0));
         }

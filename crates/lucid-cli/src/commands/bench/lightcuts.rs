@@ -37,11 +37,11 @@ pub fn relative_differences(image: &Image, reference: &Image) -> [f64; 4] {
     [mean, d[((n - 1) as f64 * 0.99).round() as usize], d[n - 1], above]
 }
 
-fn timed(loaded: &LoadedScene, integrator: Integrator, spp: u32) -> (RenderOutput, f64) {
+fn timed(loaded: &LoadedScene, integrator: Integrator, spp: u32) -> anyhow::Result<(RenderOutput, f64)> {
     let settings = RenderSettings { spp, seed: 1, integrator, ..loaded.settings };
     let started = Instant::now();
-    let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {});
-    (out, started.elapsed().as_secs_f64())
+    let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {})?;
+    Ok((out, started.elapsed().as_secs_f64()))
 }
 
 /// Runs the benchmark, prints its table and returns one JSON result per scene.
@@ -64,8 +64,8 @@ pub fn run(bench: &LightcutsBench) -> anyhow::Result<Vec<Value>> {
                 let vpls = InstantRadiosity { light_paths, ..Lightcuts::DEFAULT.vpls };
                 Integrator::Lightcuts(Lightcuts { vpls, error })
             };
-            let (brute, brute_s) = timed(&loaded, with(0.0), bench.spp);
-            let (cut, cut_s) = timed(&loaded, with(Lightcuts::DEFAULT.error), bench.spp);
+            let (brute, brute_s) = timed(&loaded, with(0.0), bench.spp)?;
+            let (cut, cut_s) = timed(&loaded, with(Lightcuts::DEFAULT.error), bench.spp)?;
             let [mean, p99, max, above] = relative_differences(&cut.colour, &brute.colour);
             let rays = brute.rays as f64 / cut.rays.max(1) as f64;
             println!(

@@ -101,7 +101,7 @@ pub fn run(spp: u32, rounds: usize) -> anyhow::Result<Value> {
         for (k, (_, loaded)) in scenes.iter().enumerate() {
             let settings = RenderSettings { spp, ..loaded.settings };
             let started = Instant::now();
-            let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {});
+            let out = render(&loaded.scene, &loaded.camera, &settings, &|_| {})?;
             times[k].push(started.elapsed().as_secs_f64());
             let m = out.colour.mean();
             means[k] = (m[0] + m[1] + m[2]) / 3.0;

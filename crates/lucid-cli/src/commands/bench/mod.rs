@@ -234,7 +234,7 @@ fn bench_trace(quick: bool) -> anyhow::Result<serde_json::Value> {
     let threads = rayon::current_num_threads();
     let bar = crate::progress::bar(k.height as u64, "cornell");
     let started = std::time::Instant::now();
-    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64));
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64))?;
     let seconds = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let m = out.colour.mean();

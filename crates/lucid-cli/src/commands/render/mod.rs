@@ -57,7 +57,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let _lock = parent.is_dir().then(|| lucid_image::output::OutputLock::file(&args.output)).transpose()?;
     let bar = crate::progress::bar(k.height as u64, "rendering");
     let started = std::time::Instant::now();
-    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64));
+    let out = render(&loaded.scene, &loaded.camera, &loaded.settings, &|rows| bar.set_position(rows as u64))
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     bar.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
 
