@@ -51,8 +51,26 @@ pub struct LoadedItm {
     pub trainer: ItmTrainer,
 }
 
-/// Loads an ITM checkpoint onto `device`.
+/// Loads the network of an ITM checkpoint onto `device` (its optimiser state unread), with
+/// the header.
+pub fn load_net(path: &Path, device: &Device) -> Result<(ItmCheckpointHeader, ItmNet), CheckpointError> {
+    let (header, net, _) = read(path, device)?;
+    Ok((header, net))
+}
+
+/// Loads an ITM checkpoint onto `device`, to continue training.
 pub fn load(path: &Path, device: &Device) -> Result<LoadedItm, CheckpointError> {
+    let (header, net, optimizer) = read(path, device)?;
+    let optimizer = AdamConfig::new()
+        .init()
+        .from_bytes(Bytes::from_bytes_vec(optimizer))
+        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
+    let trainer = ItmTrainer::from_parts(header.config.clone(), net, optimizer, header.step, device.clone());
+    Ok(LoadedItm { header, trainer })
+}
+
+/// The header, the network and the optimiser section's bytes of a checkpoint.
+fn read(path: &Path, device: &Device) -> Result<(ItmCheckpointHeader, ItmNet, Vec<u8>), CheckpointError> {
     let (value, sections) = read_kind_sections(path, ITM_KIND)?;
     let header: ItmCheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
@@ -65,10 +83,5 @@ pub fn load(path: &Path, device: &Device) -> Result<LoadedItm, CheckpointError> 
     let net = ItmNet::new(header.config.model.width, device)
         .try_load_record(record)
         .map_err(|e| invalid(path, format!("network parameters: {e}")))?;
-    let optimizer = AdamConfig::new()
-        .init()
-        .from_bytes(Bytes::from_bytes_vec(optimizer.clone()))
-        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
-    let trainer = ItmTrainer::from_parts(header.config.clone(), net, optimizer, header.step, device.clone());
-    Ok(LoadedItm { header, trainer })
+    Ok((header, net, optimizer.clone()))
 }

@@ -105,8 +105,39 @@ pub struct LoadedRelight {
     pub lights: LightSet,
 }
 
-/// Loads a relighting checkpoint onto `device`.
+/// A relighting model apart from its trainer: the frozen geometry, the head and the lights
+/// it was trained under, without optimiser state.
+pub struct TrainedRelight {
+    /// The header.
+    pub header: RelightCheckpointHeader,
+    /// The frozen geometry.
+    pub geometry: Geometry,
+    /// The head, on the device it was loaded onto.
+    pub head: RelightHead,
+    /// The training lights.
+    pub lights: LightSet,
+}
+
+/// Loads the model of a relighting checkpoint onto `device` (its optimiser state unread).
+pub fn load_model(path: &Path, device: &Device) -> Result<TrainedRelight, CheckpointError> {
+    Ok(read(path, device)?.0)
+}
+
+/// Loads a relighting checkpoint onto `device`, to continue training.
 pub fn load(path: &Path, device: &Device) -> Result<LoadedRelight, CheckpointError> {
+    let (model, optimizer) = read(path, device)?;
+    let optimizer = AdamConfig::new()
+        .init()
+        .from_bytes(Bytes::from_bytes_vec(optimizer))
+        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
+    let TrainedRelight { header, geometry, head, lights } = model;
+    let trainer =
+        RelightTrainer::from_parts(header.config.clone(), geometry, head, optimizer, header.step, device.clone());
+    Ok(LoadedRelight { header, trainer, lights })
+}
+
+/// The model of a checkpoint and its optimiser section's bytes.
+fn read(path: &Path, device: &Device) -> Result<(TrainedRelight, Vec<u8>), CheckpointError> {
     let (value, sections) = read_kind_sections(path, RELIGHT_KIND)?;
     let header: RelightCheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
@@ -120,16 +151,10 @@ pub fn load(path: &Path, device: &Device) -> Result<LoadedRelight, CheckpointErr
     let head = RelightHead::new(&header.config, header.gaussians, device)
         .try_load_record(record)
         .map_err(|e| invalid(path, format!("head parameters: {e}")))?;
-    let optimizer = AdamConfig::new()
-        .init()
-        .from_bytes(Bytes::from_bytes_vec(optimizer.clone()))
-        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
     let geometry = Geometry::new(cloud, header.settings, device);
-    let trainer =
-        RelightTrainer::from_parts(header.config.clone(), geometry, head, optimizer, header.step, device.clone());
     let lights = LightSet {
         directions: header.training_directions.iter().map(|d| Vec3::from_array(*d)).collect(),
         irradiance: header.irradiance,
     };
-    Ok(LoadedRelight { header, trainer, lights })
+    Ok((TrainedRelight { header, geometry, head, lights }, optimizer.clone()))
 }

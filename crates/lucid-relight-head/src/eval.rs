@@ -243,8 +243,7 @@ impl RelightReport {
 /// Evaluates a trained head on `views` (their lights and environment maps), writing each
 /// render as `VVV_<truth stem>.exr` and `metrics.json` into `out`.
 pub fn evaluate_into(
-    trainer: &crate::trainer::RelightTrainer,
-    lights: &crate::checkpoint::LightSet,
+    trained: &crate::checkpoint::TrainedRelight,
     views: &[CapturedView],
     out: &std::path::Path,
     device: &Device,
@@ -252,11 +251,11 @@ pub fn evaluate_into(
     let folder = lucid_image::owned_folder::OwnedFolder::claim(out, "the evaluation", &[])
         .map_err(lucid_image::ImageError::from)?;
     let model = RelightModel {
-        config: &trainer.config,
-        geometry: &trainer.geometry,
-        head: &trainer.head,
-        training_directions: &lights.directions,
-        irradiance: lights.irradiance,
+        config: &trained.header.config,
+        geometry: &trained.geometry,
+        head: &trained.head,
+        training_directions: &trained.lights.directions,
+        irradiance: trained.lights.irradiance,
         device,
     };
     let report = model.evaluate(views, |score, image| {

@@ -53,8 +53,8 @@ impl Trainable for HeadRun<'_> {
             return Ok(Vec::new());
         };
         let device = lucid_burn::backend::default_device();
-        let loaded = crate::checkpoint::load(checkpoint, &device)?;
-        let report = crate::eval::evaluate_into(&loaded.trainer, &loaded.lights, &test.views, out, &device)?;
+        let trained = crate::checkpoint::load_model(checkpoint, &device)?;
+        let report = crate::eval::evaluate_into(&trained, &test.views, out, &device)?;
         Ok(report.lines())
     }
 }

@@ -48,8 +48,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
 
 fn itm(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
     let device = lucid_burn::backend::default_device();
-    let loaded = lucid_itm::checkpoint::load(&args.checkpoint, &device)?;
-    let threshold = loaded.trainer.config.model.mask_threshold;
+    let (header, net) = lucid_itm::checkpoint::load_net(&args.checkpoint, &device)?;
+    let threshold = header.config.model.mask_threshold;
     let mut images = lucid_itm::data::load(std::slice::from_ref(&args.dataset), split, threshold)
         .with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if let Some(limit) = args.limit {
@@ -60,7 +60,7 @@ fn itm(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
     let tuning = lucid_itm::data::load(std::slice::from_ref(&args.dataset), Split::Train, threshold)
         .with_context(|| format!("reading the training views of {}", args.dataset.display()))?;
     let boost = lucid_itm::eval::best_boost(&tuning);
-    let report = lucid_itm::eval::evaluate_into(&loaded.trainer.net, &images, &device, boost, out)?;
+    let report = lucid_itm::eval::evaluate_into(&net, &images, &device, boost, out)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -71,7 +71,7 @@ fn itm(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
 
 fn relight(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
     let device = lucid_burn::backend::default_device();
-    let loaded = lucid_relight_head::checkpoint::load(&args.checkpoint, &device)?;
+    let trained = lucid_relight_head::checkpoint::load_model(&args.checkpoint, &device)?;
     let data =
         OlatSet::load(&args.dataset, split).with_context(|| format!("reading dataset {}", args.dataset.display()))?;
     if data.views.is_empty() {
@@ -82,7 +82,7 @@ fn relight(args: &EvalArgs, split: Split, out: &Path) -> anyhow::Result<()> {
         );
     }
     let views = &data.views[..args.limit.unwrap_or(data.views.len()).min(data.views.len())];
-    let report = lucid_relight_head::eval::evaluate_into(&loaded.trainer, &loaded.lights, views, out, &device)?;
+    let report = lucid_relight_head::eval::evaluate_into(&trained, views, out, &device)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
