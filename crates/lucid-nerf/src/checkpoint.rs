@@ -92,8 +92,41 @@ pub struct Loaded {
     pub trainer: NerfTrainer,
 }
 
+/// What a checkpoint holds, read: everything but the optimiser state, whose bytes are kept
+/// for a trainer to parse.
+pub(crate) struct Parts {
+    pub(crate) header: CheckpointHeader,
+    pub(crate) model: NerfModel,
+    pub(crate) optimizer: Vec<u8>,
+    pub(crate) grid: OccupancyGrid,
+    pub(crate) error_map: Option<ErrorMap>,
+    pub(crate) average: Option<ParameterAverage>,
+}
+
 /// Loads a NeRF checkpoint onto `device` (use the autodiff device to continue training).
 pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
+    let Parts { header, model, optimizer: state, grid, error_map, average } = read(path, device)?;
+    let optimizer = optimizer(&header.config)
+        .from_bytes(Bytes::from_bytes_vec(state))
+        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
+    let mut trainer = NerfTrainer::resume(
+        header.config.clone(),
+        model,
+        Some(optimizer),
+        grid,
+        header.step,
+        header.pixel_angle,
+        device.clone(),
+    );
+    trainer.rays_per_batch = header.rays_per_batch;
+    trainer.view = header.view;
+    trainer.error_map = error_map;
+    trainer.average = average;
+    Ok(Loaded { header, trainer })
+}
+
+/// Reads a checkpoint's sections onto `device`, checking each against the header.
+pub(crate) fn read(path: &Path, device: &Device) -> Result<Parts, CheckpointError> {
     let (value, sections) = read_kind_sections(path, NERF_KIND)?;
     let header: CheckpointHeader =
         serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
@@ -132,29 +165,13 @@ pub fn load(path: &Path, device: &Device) -> Result<Loaded, CheckpointError> {
         .map_err(|e| invalid(path, format!("model parameters: {e}")))?;
     let fresh = NerfModel::init(&header.config.field, device, header.config.train.seed);
     let model = fresh.try_load_record(record).map_err(|e| invalid(path, format!("model parameters: {e}")))?;
-    let optimizer = optimizer(&header.config)
-        .from_bytes(Bytes::from_bytes_vec(optim.to_vec()))
-        .map_err(|e| invalid(path, format!("optimiser state: {e}")))?;
     let res = header.config.occupancy.resolution;
     let thickness = le_f32s(thickness).ok_or_else(|| invalid(path, "occupancy thickness: not whole f32 values"))?;
     let bits: Vec<u64> = bits.chunks_exact(8).map(|c| u64::from_le_bytes(c.try_into().expect("8"))).collect();
     let [lo, hi] = header.bounds;
     let grid = OccupancyGrid::from_parts(res, Vec3::from(lo), Vec3::from(hi), thickness, bits)
         .ok_or_else(|| invalid(path, "occupancy grid does not match its resolution"))?;
-    let mut trainer = NerfTrainer::resume(
-        header.config.clone(),
-        model,
-        Some(optimizer),
-        grid,
-        header.step,
-        header.pixel_angle,
-        device.clone(),
-    );
-    trainer.rays_per_batch = header.rays_per_batch;
-    trainer.view = header.view;
-    trainer.error_map = error_map;
-    trainer.average = average;
-    Ok(Loaded { header, trainer })
+    Ok(Parts { header, model, optimizer: optim.to_vec(), grid, error_map, average })
 }
 
 /// Little-endian `f32`s of a section, or `None` if its length is not a whole number of them.

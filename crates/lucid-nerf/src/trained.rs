@@ -7,6 +7,7 @@ use std::path::Path;
 use glam::Vec3;
 use lucid_scene::scene_model::{RenderOptions, RendersThrough, SceneModel};
 
+use crate::average::ParameterAverage;
 use crate::checkpoint::{CheckpointError, NERF_KIND};
 use crate::config::{Background, MAX_PIXEL_RAYS, NerfConfig};
 use crate::data::ViewInfo;
@@ -39,15 +40,37 @@ impl TrainedNerf {
         }
     }
 
-    /// The model a NeRF checkpoint holds.
+    /// The model a NeRF checkpoint holds (its optimiser state unread).
     pub fn load(path: &Path) -> Result<Self, CheckpointError> {
-        let loaded = crate::checkpoint::load(path, &crate::backend::default_device())?;
-        Ok(Self::of(&loaded.trainer))
+        let parts = crate::checkpoint::read(path, &crate::backend::default_device())?;
+        let h = parts.header;
+        Ok(Self {
+            model: eval_model(&h.config, &parts.model, parts.average.as_ref()),
+            grid: parts.grid,
+            config: h.config,
+            pixel_angle: h.pixel_angle,
+            view: h.view,
+            step: h.step,
+        })
     }
 
     /// The configuration it was trained with (its render settings as changed since).
     pub fn config(&self) -> &NerfConfig {
         &self.config
+    }
+}
+
+/// The parameters to evaluate and render, without autodiff tracking, on the inner device:
+/// the running average `average` once there is one, else `model`'s.
+pub(crate) fn eval_model(config: &NerfConfig, model: &NerfModel, average: Option<&ParameterAverage>) -> NerfModel {
+    match average {
+        Some(average) => NerfModel::from_values(
+            &config.field,
+            average.table.clone(),
+            average.mlp.clone(),
+            &crate::backend::default_device(),
+        ),
+        None => burn::module::Module::valid(model),
     }
 }
 

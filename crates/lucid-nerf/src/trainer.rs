@@ -541,15 +541,7 @@ impl NerfTrainer {
     /// The model to evaluate and render, without autodiff tracking, on the inner device:
     /// the parameters' running average once there is one, else the parameters.
     pub fn eval_model(&self) -> NerfModel {
-        match &self.average {
-            Some(average) => NerfModel::from_values(
-                &self.config.field,
-                average.table.clone(),
-                average.mlp.clone(),
-                &crate::backend::default_device(),
-            ),
-            None => burn::module::Module::valid(&self.model),
-        }
+        crate::trained::eval_model(&self.config, &self.model, self.average.as_ref())
     }
 
     /// A renderer of `model` (from [`Self::eval_model`]) with this run's settings.
