@@ -1,5 +1,6 @@
 //! What a session reports while it runs, to whoever listens: typed events, in order
-//! ([`Event::Ready`] once, [`Event::Step`] after every step, [`Event::Finished`] once).
+//! ([`Event::Ready`] once; [`Event::Step`] after every step, with [`Event::Losses`] at each
+//! log row and [`Event::Checkpoint`] after each checkpoint; [`Event::Finished`] once).
 
 use std::path::Path;
 
@@ -39,6 +40,24 @@ pub enum Event<'a> {
         report: &'a StepReport,
         /// The model after the step.
         model: Snapshot<'a>,
+    },
+    /// A log row: the mean loss and batch PSNR of the steps since the last row.
+    Losses {
+        /// Steps taken so far.
+        step: usize,
+        /// Training seconds so far.
+        elapsed: f64,
+        /// Mean loss.
+        loss: f64,
+        /// Mean batch PSNR in dB, where the method measures one.
+        psnr: Option<f64>,
+    },
+    /// A checkpoint was written.
+    Checkpoint {
+        /// The file.
+        path: &'a Path,
+        /// The step it holds.
+        step: usize,
     },
     /// The run ended (its budget spent, or stopped at the requested step) and its last
     /// checkpoint, exports and evaluation are written.

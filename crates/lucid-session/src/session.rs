@@ -1,8 +1,10 @@
 //! One way to set up and run training, for every method.
 
+use std::marker::PhantomData;
+use std::path::Path;
 use std::time::Instant;
 
-use lucid_burn::run::{ModelError, RunFolder, RunSummary, Start, StepReport, Trainable};
+use lucid_burn::run::{ModelError, Observer, RunFolder, RunSummary, Start, StepReport, Trainable};
 
 use crate::events::{Event, Listener};
 use crate::method::Method;
@@ -63,14 +65,31 @@ pub fn train<M: Method>(request: &RunRequest, listener: &mut dyn Listener) -> Re
     );
     let every = (settings.checkpoint_every, settings.log_every);
     let options = request.options(&folder, budget, elapsed, every, M::LABEL)?;
-    let mut observer = |trainer: &M::Trainer<'_>, report: &StepReport, elapsed: f64| -> Result<(), ModelError> {
-        let step = trainer.steps_taken();
-        listener.on(&Event::Step { step, elapsed, report, model: &|| M::snapshot(trainer) })
-    };
-    let summary = lucid_burn::run::run(&mut trainer, &options, &mut observer)?;
+    let summary = lucid_burn::run::run(&mut trainer, &options, &mut Relay::<M> { listener, method: PhantomData })?;
     let checkpoint = folder.checkpoint();
     listener
         .on(&Event::Finished { summary: &summary, checkpoint: &checkpoint, model: &|| M::snapshot(&trainer) })
         .map_err(|e| SessionError::read("finishing the run", e))?;
     Ok(summary)
+}
+
+/// The training loop's callbacks as a session's events.
+struct Relay<'l, M> {
+    listener: &'l mut dyn Listener,
+    method: PhantomData<M>,
+}
+
+impl<'t, M: Method> Observer<M::Trainer<'t>> for Relay<'_, M> {
+    fn after_step(&mut self, trainer: &M::Trainer<'t>, report: &StepReport, elapsed: f64) -> Result<(), ModelError> {
+        let step = trainer.steps_taken();
+        self.listener.on(&Event::Step { step, elapsed, report, model: &|| M::snapshot(trainer) })
+    }
+
+    fn logged(&mut self, step: usize, elapsed: f64, loss: f64, psnr: Option<f64>) -> Result<(), ModelError> {
+        self.listener.on(&Event::Losses { step, elapsed, loss, psnr })
+    }
+
+    fn checkpointed(&mut self, path: &Path, step: usize) -> Result<(), ModelError> {
+        self.listener.on(&Event::Checkpoint { path, step })
+    }
 }

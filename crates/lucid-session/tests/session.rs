@@ -125,6 +125,8 @@ impl Method for Count {
 enum Heard {
     Ready { step: usize, budget: Budget, model: bool },
     Step(usize),
+    Losses(usize),
+    Checkpoint(usize),
     Finished { steps: usize, interrupted: bool },
 }
 
@@ -134,6 +136,14 @@ fn train(request: &RunRequest) -> Result<Vec<Heard>, SessionError> {
         heard.push(match *event {
             Event::Ready { step, budget, model, .. } => Heard::Ready { step, budget, model: model().is_some() },
             Event::Step { step, .. } => Heard::Step(step),
+            Event::Losses { step, loss, .. } => {
+                assert!((loss - 1.0 / step as f64).abs() < 1e-6, "a row of one step has that step's loss");
+                Heard::Losses(step)
+            }
+            Event::Checkpoint { step, path } => {
+                assert!(path.ends_with("checkpoint.lucid") && path.is_file());
+                Heard::Checkpoint(step)
+            }
             Event::Finished { summary, .. } => {
                 Heard::Finished { steps: summary.steps, interrupted: summary.interrupted }
             }
@@ -154,7 +164,9 @@ fn events_arrive_in_order_and_a_step_budget_takes_its_steps() {
     let heard = train(&RunRequest { steps: Some(4), ..request(dir.path()) }).unwrap();
     let budget = Budget::Steps { steps: 4 };
     let mut expected = vec![Heard::Ready { step: 0, budget, model: false }];
-    expected.extend((1..=4).map(Heard::Step));
+    // A log row every step, then the step; the one checkpoint at the end.
+    expected.extend((1..=4).flat_map(|k| [Heard::Losses(k), Heard::Step(k)]));
+    expected.push(Heard::Checkpoint(4));
     expected.push(Heard::Finished { steps: 4, interrupted: false });
     assert_eq!(heard, expected);
     // The run's folder: its configuration (the request's steps in it), log and checkpoint.
@@ -197,7 +209,7 @@ fn a_run_stopped_early_resumes_where_it_stopped_and_refuses_changes() {
     let resume = RunRequest { start: Start::Resume, ..request(dir.path()) };
     let heard = train(&resume).unwrap();
     assert_eq!(heard[0], Heard::Ready { step: 2, budget: Budget::Steps { steps: 6 }, model: false });
-    assert_eq!(heard[1], Heard::Step(3));
+    assert_eq!(heard[1..3], [Heard::Losses(3), Heard::Step(3)]);
     assert_eq!(heard.last(), Some(&Heard::Finished { steps: 6, interrupted: false }));
     let log = std::fs::read_to_string(dir.path().join("run/train_log.csv")).unwrap();
     let steps: Vec<&str> = log.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
@@ -219,12 +231,16 @@ fn checkpoints_are_written_by_training_time() {
         overrides: vec!["train.step_ms=5".into()],
         ..request(dir.path())
     };
-    let mut saved_at = Vec::new();
+    let (mut saved_at, mut announced) = (Vec::new(), Vec::new());
     let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
-        if let Event::Step { step, .. } = *event
-            && let Ok(header) = lucid_burn::checkpoint::read_header(&checkpoint)
-        {
-            saved_at.push((step, header["step"].as_u64().unwrap() as usize));
+        match *event {
+            Event::Step { step, .. } => {
+                if let Ok(header) = lucid_burn::checkpoint::read_header(&checkpoint) {
+                    saved_at.push((step, header["step"].as_u64().unwrap() as usize));
+                }
+            }
+            Event::Checkpoint { step, .. } => announced.push(step),
+            _ => {}
         }
         Ok(())
     };
@@ -234,6 +250,9 @@ fn checkpoints_are_written_by_training_time() {
     assert!(first < 15, "first checkpoint after step {first}");
     let distinct: std::collections::BTreeSet<usize> = saved_at.iter().map(|s| s.1).collect();
     assert!(distinct.len() >= 3, "{saved_at:?}");
+    // Each checkpoint was announced, the last one at the end.
+    assert!(distinct.iter().all(|s| announced.contains(s)), "{announced:?} {saved_at:?}");
+    assert_eq!(announced.last(), Some(&30));
 }
 
 #[test]

@@ -142,6 +142,17 @@ pub trait Trainable {
 pub trait Observer<T: ?Sized> {
     /// Called after every step with the model, the step's report and the training seconds.
     fn after_step(&mut self, model: &T, report: &StepReport, elapsed: f64) -> Result<(), ModelError>;
+
+    /// Called for each log row (whether or not a log file is kept): the step, the training
+    /// seconds, and the mean loss and batch PSNR of the steps since the last row.
+    fn logged(&mut self, _step: usize, _elapsed: f64, _loss: f64, _psnr: Option<f64>) -> Result<(), ModelError> {
+        Ok(())
+    }
+
+    /// Called after each checkpoint is written, with its step.
+    fn checkpointed(&mut self, _path: &Path, _step: usize) -> Result<(), ModelError> {
+        Ok(())
+    }
 }
 
 /// Any closure of the model, the step's report and the training seconds observes.
@@ -289,12 +300,14 @@ pub fn run<T: Trainable + ?Sized>(
         }
         None => Ok(()),
     };
-    let save = |model: &T, elapsed: f64| -> Result<(), RunError> {
+    let save = |model: &T, elapsed: f64, observer: &mut dyn Observer<T>| -> Result<(), RunError> {
         check(model)?;
-        match &options.checkpoint {
-            Some(path) => Ok(model.save(path, elapsed)?),
-            None => Ok(()),
-        }
+        let Some(path) = &options.checkpoint else { return Ok(()) };
+        model.save(path, elapsed)?;
+        let step = model.steps_taken();
+        observer
+            .checkpointed(path, step)
+            .map_err(|source| RunError::Model { context: format!("after the checkpoint of step {step}"), source })
     };
     while !budget.spent(model.steps_taken(), elapsed) && model.steps_taken() < stop_at {
         let started = Instant::now();
@@ -329,11 +342,14 @@ pub fn run<T: Trainable + ?Sized>(
                 log.row(&row)?;
             }
             bar.message(model.status(loss, psnr));
+            observer
+                .logged(step, elapsed, loss, psnr)
+                .map_err(|source| RunError::Model { context: format!("after the log row of step {step}"), source })?;
         }
         let by_steps = options.checkpoint_every > 0 && step.is_multiple_of(options.checkpoint_every);
         let by_time = options.checkpoint_seconds > 0.0 && elapsed - saved_at >= options.checkpoint_seconds;
         if by_steps || by_time {
-            save(model, elapsed)?;
+            save(model, elapsed, observer)?;
             saved_at = elapsed;
         }
         // Logging and saving are part of training; only the observer's time is not.
@@ -344,7 +360,7 @@ pub fn run<T: Trainable + ?Sized>(
             .map_err(|source| RunError::Model { context: format!("after step {step}"), source })?;
     }
     bar.clear();
-    save(model, elapsed)?;
+    save(model, elapsed, observer)?;
     let steps = model.steps_taken();
     let interrupted = !budget.spent(steps, elapsed);
     let mut report = model.finish().map_err(|source| RunError::Model { context: "finishing".into(), source })?;

@@ -42,7 +42,7 @@ impl Listener for TrainListener {
                     live.observe(step, &|| model().expect("a run the viewer shows has a model"), report, elapsed);
                 }
             }
-            Event::Finished { .. } => {}
+            _ => {}
         }
         Ok(())
     }

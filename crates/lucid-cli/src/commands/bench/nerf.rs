@@ -49,7 +49,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
                 }
             }
             Event::Finished { model, .. } => trained = model(),
-            Event::Ready { .. } => {}
+            _ => {}
         }
         Ok(())
     };

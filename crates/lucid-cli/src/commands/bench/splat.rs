@@ -68,7 +68,7 @@ fn train_run<'a>(
                 }
             }
             Event::Finished { model, .. } => trained = model(),
-            Event::Ready { .. } => {}
+            _ => {}
         }
         Ok(())
     };
