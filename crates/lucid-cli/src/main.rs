@@ -3,7 +3,6 @@
 //! A thin binary over the library crates: it parses arguments, sets up logging, runs one
 //! subcommand and turns any error into a single line on stderr and a non-zero exit code.
 
-mod budget_curve;
 mod cli;
 mod commands;
 mod loaded_model;

@@ -7,6 +7,7 @@
 //!   the one training loop ([`lucid_burn::run`]) and reports what happens as typed [`Event`]s
 //!   to a [`Listener`] (a progress display, a live viewer, a benchmark's recorder).
 
+pub mod curve;
 pub mod events;
 pub mod method;
 pub mod methods;

@@ -197,6 +197,14 @@ fn run_trainer(args: &BenchArgs, target: BenchTarget, dataset: BenchDataset) -> 
     })
 }
 
+/// Prints the validation split's scores, the ones settings are to be chosen on.
+fn print_validation(val: &lucid_scene::evaluation::EvalSummary) {
+    println!(
+        "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
+        val.views, val.psnr, val.ssim
+    );
+}
+
 /// A benchmark's timed run of `dataset` for `seconds` with `overrides`, in `folder`: no log,
 /// no checkpoints (writing them would count as training time), no closing evaluation (the
 /// benchmark scores its own curve).

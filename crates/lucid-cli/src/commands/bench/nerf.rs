@@ -17,7 +17,8 @@ use lucid_session::events::Event;
 use lucid_session::methods::Nerf;
 use serde_json::json;
 
-use crate::budget_curve::BudgetCurve;
+use lucid_session::Listener;
+use lucid_session::curve::{BudgetCurve, CurvePoint};
 
 /// Options of the NeRF benchmark.
 pub struct NerfBench {
@@ -42,16 +43,11 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     let total = curve.total();
     let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
         match *event {
-            Event::Step { step, elapsed, report, model } => {
-                samples += report.columns[samples_column] as usize;
-                while curve.due(elapsed) {
-                    curve.score(&*model().ok_or("a NeRF")?, elapsed, step, json!({}));
-                }
-            }
+            Event::Step { report, .. } => samples += report.columns[samples_column] as usize,
             Event::Finished { model, .. } => trained = model(),
             _ => {}
         }
-        Ok(())
+        curve.on(event)
     };
     // Time ends the run, and the learning rate decays over it.
     let folder = tempfile::tempdir().context("a folder for the benchmark's run")?;
@@ -72,7 +68,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
     out["scene"] = json!(bench.dataset.built_in);
     out["ceiling"] = json!(ceiling);
     if let Some(val) = &last_val {
-        crate::budget_curve::print_validation(val);
+        super::print_validation(val);
         out["final_val"] = json!(val);
     }
     Ok(out)
@@ -81,7 +77,7 @@ pub fn run(bench: NerfBench) -> anyhow::Result<serde_json::Value> {
 #[allow(clippy::too_many_arguments)]
 fn report(
     (config, steps): (&NerfConfig, usize),
-    curve: &[serde_json::Value],
+    curve: &[CurvePoint],
     last: &lucid_nerf::eval::EvalSummary,
     phases: &StepTimings,
     samples: usize,
@@ -93,13 +89,7 @@ fn report(
     println!("backend {}", lucid_nerf::backend::backend_name());
     println!("{:>10} {:>7} {:>9} {:>8}", "train (s)", "step", "PSNR", "SSIM");
     for p in curve {
-        println!(
-            "{:>10.1} {:>7} {:>9.2} {:>8.4}",
-            p["seconds"].as_f64().unwrap_or(0.0),
-            p["step"],
-            p["psnr"].as_f64().unwrap_or(0.0),
-            p["ssim"].as_f64().unwrap_or(0.0)
-        );
+        println!("{:>10.1} {:>7} {:>9.2} {:>8.4}", p.seconds, p.step, p.psnr, p.ssim);
     }
     let rate = samples as f64 / trained.max(1e-9);
     println!("final: {} test views, PSNR {:.2} dB{ceiling_note}, SSIM {:.4}", last.views, last.psnr, last.ssim);

@@ -21,7 +21,8 @@ use lucid_splat::trained::TrainedSplats;
 use lucid_splat::{RenderSettings, RenderState, SplatCamera, SplatCloud, render, render_backward};
 use serde_json::json;
 
-use crate::budget_curve::BudgetCurve;
+use lucid_session::Listener;
+use lucid_session::curve::BudgetCurve;
 
 /// Options of the splat benchmark.
 pub struct SplatBench {
@@ -59,18 +60,10 @@ fn train_run<'a>(
     let mut trained = None;
     let total = curve.total();
     let mut listener = |event: &Event<'_>| -> Result<(), ModelError> {
-        match *event {
-            Event::Step { step, elapsed, model, .. } => {
-                while curve.due(elapsed) {
-                    let model = model().ok_or("splats")?;
-                    let gaussians = model.as_any().downcast_ref::<TrainedSplats>().map_or(0, |s| s.cloud().len());
-                    curve.score(&*model, elapsed, step, json!({ "gaussians": gaussians }));
-                }
-            }
-            Event::Finished { model, .. } => trained = model(),
-            _ => {}
+        if let Event::Finished { model, .. } = *event {
+            trained = model();
         }
-        Ok(())
+        curve.on(event)
     };
     // Time ends the run, and the schedules stretch over it.
     let folder = tempfile::tempdir().context("a folder for the benchmark's run")?;
@@ -109,18 +102,11 @@ pub fn run(bench: SplatBench) -> anyhow::Result<serde_json::Value> {
     println!("lucid bench splat{}: {}", if bench.quick { " --quick" } else { "" }, bench.dataset.describe());
     println!("{:>10} {:>7} {:>9} {:>8} {:>10}", "train (s)", "step", "PSNR", "SSIM", "Gaussians");
     for p in &curve {
-        println!(
-            "{:>10.1} {:>7} {:>9.2} {:>8.4} {:>10}",
-            p["seconds"].as_f64().unwrap_or(0.0),
-            p["step"],
-            p["psnr"].as_f64().unwrap_or(0.0),
-            p["ssim"].as_f64().unwrap_or(0.0),
-            p["gaussians"]
-        );
+        println!("{:>10.1} {:>7} {:>9.2} {:>8.4} {:>10}", p.seconds, p.step, p.psnr, p.ssim, p.gaussians.unwrap_or(0));
     }
     println!("final: {} test views, PSNR {:.2} dB{note}, SSIM {:.4}", last.views, last.psnr, last.ssim);
     if let Some(val) = &last_val {
-        crate::budget_curve::print_validation(val);
+        super::print_validation(val);
     }
     println!(
         "from random points instead of the exact-depth point cloud ({} in the scene box): test PSNR {:.2} dB{note}, SSIM {:.4}, {} Gaussians",

@@ -1,18 +1,34 @@
 //! The benchmarks' held-out curve: a trained model scored each time its training seconds
 //! pass one of a list of budgets (30 s, 1, 2, 5, 10 min), on the same first test views at
 //! every point; the last point scores the whole test split too, and the validation split,
-//! which is what settings are to be chosen on (the test split only reports).
+//! which is what settings are to be chosen on (the test split only reports). A session's
+//! [`Listener`]: it scores the model its step events carry.
 
+use lucid_burn::run::ModelError;
 use lucid_scene::dataset::images::ImageSet;
-use lucid_scene::evaluation::{EvalSummary, ViewModel, ViewScore, evaluate};
-use serde_json::{Value, json};
+use lucid_scene::evaluation::{EvalSummary, ViewScore, evaluate};
+use lucid_scene::scene_model::SceneModel;
+use lucid_splat::trained::TrainedSplats;
+use serde::Serialize;
 
-/// Prints the validation split's scores, the ones settings are to be chosen on.
-pub fn print_validation(val: &EvalSummary) {
-    println!(
-        "validation split (choose settings on this): {} views, PSNR {:.2} dB, SSIM {:.4}",
-        val.views, val.psnr, val.ssim
-    );
+use crate::events::{Event, Listener};
+
+/// One point of a curve.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CurvePoint {
+    /// Training seconds when it was scored.
+    pub seconds: f64,
+    /// Steps taken by then.
+    pub step: usize,
+    /// Mean PSNR (dB) of the curve's views.
+    pub psnr: f64,
+    /// Mean SSIM of the curve's views.
+    pub ssim: f64,
+    /// How many views.
+    pub views: usize,
+    /// Gaussians in the cloud, for splats.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gaussians: Option<usize>,
 }
 
 /// The curve of one benchmark run.
@@ -21,8 +37,8 @@ pub struct BudgetCurve<'a> {
     test: &'a ImageSet,
     val: Option<&'a ImageSet>,
     curve_views: usize,
-    /// The scored points: seconds, step, PSNR, SSIM, views (and what the caller adds).
-    pub points: Vec<Value>,
+    /// The scored points.
+    pub points: Vec<CurvePoint>,
     /// The whole test split's scores at the last budget.
     pub last: Option<EvalSummary>,
     /// The whole validation split's scores at the last budget.
@@ -49,25 +65,36 @@ impl<'a> BudgetCurve<'a> {
         self.budgets.get(self.points.len()).is_some_and(|&b| seconds >= b)
     }
 
-    /// Scores `renderer` for the next point, reached at `seconds` and `step`; `extra` fields
-    /// join the point.
-    pub fn score(&mut self, renderer: &dyn ViewModel, seconds: f64, step: usize, extra: Value) {
+    /// Scores `model` for the next point, reached at `seconds` and `step`.
+    pub fn score(&mut self, model: &dyn SceneModel, seconds: f64, step: usize) {
         let all = self.points.len() + 1 == self.budgets.len();
         let (scores, summary) =
-            evaluate(renderer, self.test, if all { None } else { Some(self.curve_views) }, |_, _, _, _| {});
+            evaluate(model, self.test, if all { None } else { Some(self.curve_views) }, |_, _, _, _| {});
         let head = &scores[..self.curve_views.min(scores.len())];
         let mean = |f: &dyn Fn(&ViewScore) -> f64| head.iter().map(f).sum::<f64>() / head.len() as f64;
-        let mut point = json!({
-            "seconds": seconds, "step": step, "psnr": mean(&|v| v.psnr), "ssim": mean(&|v| v.ssim),
-            "views": head.len(),
+        self.points.push(CurvePoint {
+            seconds,
+            step,
+            psnr: mean(&|v| v.psnr),
+            ssim: mean(&|v| v.ssim),
+            views: head.len(),
+            gaussians: model.as_any().downcast_ref::<TrainedSplats>().map(|s| s.cloud().len()),
         });
-        if let (Some(p), Value::Object(extra)) = (point.as_object_mut(), extra) {
-            p.extend(extra);
-        }
-        self.points.push(point);
         if all {
             self.last = Some(summary);
-            self.last_val = self.val.map(|val| evaluate(renderer, val, None, |_, _, _, _| {}).1);
+            self.last_val = self.val.map(|val| evaluate(model, val, None, |_, _, _, _| {}).1);
         }
+    }
+}
+
+impl Listener for BudgetCurve<'_> {
+    /// Scores the points a step has made due.
+    fn on(&mut self, event: &Event<'_>) -> Result<(), ModelError> {
+        if let Event::Step { step, elapsed, model, .. } = *event {
+            while self.due(elapsed) {
+                self.score(&*model().ok_or("a model that renders views")?, elapsed, step);
+            }
+        }
+        Ok(())
     }
 }
