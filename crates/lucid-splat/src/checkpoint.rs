@@ -104,38 +104,9 @@ pub struct LoadedSplats {
 
 /// Loads a splat checkpoint onto `device` (the autodiff device to continue training).
 pub fn load(path: &Path, device: &Device) -> Result<LoadedSplats, CheckpointError> {
-    let (value, sections) = read_kind_sections(path, SPLAT_KIND)?;
-    let header: SplatCheckpointHeader =
-        serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
-    header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
-    let [model, moments @ .., stats] = &sections[..] else {
-        return Err(invalid(path, "truncated (missing sections)"));
-    };
-    if moments.len() != 6 {
-        return Err(invalid(path, format!("expected 9 sections, found {}", sections.len() + 1)));
-    }
+    let (header, model, sections) = read(path, device)?;
+    let [_, moments @ .., stats] = &sections[..] else { unreachable!("read checks the sections") };
     let n = header.gaussians;
-    // A header that claims more Gaussians than the file holds is damage, not a reason to
-    // allocate.
-    if n > crate::config::MAX_GAUSSIANS || model.len() < 4 * WIDTHS.iter().sum::<usize>() * n {
-        return Err(invalid(path, format!("header says {n} Gaussians, the parameters hold {} bytes", model.len())));
-    }
-    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.clone()))
-        .map_err(|e| invalid(path, format!("splat parameters: {e}")))?;
-    let blank = SplatCloud {
-        means: vec![0.0; 3 * n],
-        log_scales: vec![0.0; 3 * n],
-        rotations: vec![0.0; 4 * n],
-        opacities: vec![0.0; n],
-        sh_dc: vec![0.0; 3 * n],
-        sh_rest: vec![0.0; 45 * n],
-    };
-    let model = SplatModel::from_cloud(&blank, device)
-        .try_load_record(record)
-        .map_err(|e| invalid(path, format!("splat parameters: {e}")))?;
-    if model.len() != n {
-        return Err(invalid(path, format!("header says {n} Gaussians, the parameters hold {}", model.len())));
-    }
     let mut host: [Option<HostMoments>; 6] = Default::default();
     for (k, bytes) in moments.iter().enumerate() {
         if bytes.is_empty() {
@@ -177,4 +148,45 @@ pub fn load(path: &Path, device: &Device) -> Result<LoadedSplats, CheckpointErro
     trainer.schedule = header.schedule;
     trainer.since_densify = header.since_densify;
     Ok(LoadedSplats { header, trainer })
+}
+
+/// The header and the parameters of a checkpoint on `device`, checked against each other, and
+/// all its sections (the optimiser's and the densification statistics' still to parse).
+pub(crate) fn read(
+    path: &Path,
+    device: &Device,
+) -> Result<(SplatCheckpointHeader, SplatModel, Vec<Vec<u8>>), CheckpointError> {
+    let (value, sections) = read_kind_sections(path, SPLAT_KIND)?;
+    let header: SplatCheckpointHeader =
+        serde_json::from_value(value).map_err(|e| invalid(path, format!("malformed header: {e}")))?;
+    header.config.validate().map_err(|e| invalid(path, format!("bad configuration: {e}")))?;
+    let [model, moments @ .., _] = &sections[..] else {
+        return Err(invalid(path, "truncated (missing sections)"));
+    };
+    if moments.len() != 6 {
+        return Err(invalid(path, format!("expected 9 sections, found {}", sections.len() + 1)));
+    }
+    let n = header.gaussians;
+    // A header that claims more Gaussians than the file holds is damage, not a reason to
+    // allocate.
+    if n > crate::config::MAX_GAUSSIANS || model.len() < 4 * WIDTHS.iter().sum::<usize>() * n {
+        return Err(invalid(path, format!("header says {n} Gaussians, the parameters hold {} bytes", model.len())));
+    }
+    let record = ModuleRecord::from_bytes(Bytes::from_bytes_vec(model.clone()))
+        .map_err(|e| invalid(path, format!("splat parameters: {e}")))?;
+    let blank = SplatCloud {
+        means: vec![0.0; 3 * n],
+        log_scales: vec![0.0; 3 * n],
+        rotations: vec![0.0; 4 * n],
+        opacities: vec![0.0; n],
+        sh_dc: vec![0.0; 3 * n],
+        sh_rest: vec![0.0; 45 * n],
+    };
+    let model = SplatModel::from_cloud(&blank, device)
+        .try_load_record(record)
+        .map_err(|e| invalid(path, format!("splat parameters: {e}")))?;
+    if model.len() != n {
+        return Err(invalid(path, format!("header says {n} Gaussians, the parameters hold {}", model.len())));
+    }
+    Ok((header, model, sections))
 }

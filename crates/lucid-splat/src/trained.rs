@@ -39,10 +39,18 @@ impl TrainedSplats {
         }
     }
 
-    /// The cloud a splat checkpoint holds.
+    /// The cloud a splat checkpoint holds (its optimiser state and densification statistics
+    /// unread).
     pub fn load(path: &Path) -> Result<Self, CheckpointError> {
-        let loaded = crate::checkpoint::load(path, &lucid_burn::backend::default_device())?;
-        Ok(Self::of(&loaded.trainer))
+        let (header, model, _) = crate::checkpoint::read(path, &lucid_burn::backend::default_device())?;
+        Ok(Self {
+            cloud: model.to_cloud(),
+            settings: crate::trainer::eval_settings(&header.config, header.extent, header.schedule),
+            config: header.config,
+            view: header.view,
+            centre: header.centre.into(),
+            step: header.step,
+        })
     }
 
     /// The Gaussians.

@@ -71,6 +71,33 @@ pub struct SplatTrainer {
     device: Device,
 }
 
+/// The SH degree in use at position `schedule` of the reference schedule.
+pub fn sh_degree(config: &SplatConfig, schedule: usize) -> usize {
+    (schedule / config.train.sh_degree_every).min(config.train.sh_degree)
+}
+
+/// Render settings for evaluation (the fixed background, the SH degree at `schedule`) of a
+/// cloud trained with `config` in a scene of `extent`.
+pub fn eval_settings(config: &SplatConfig, extent: f32, schedule: usize) -> RenderSettings {
+    let background = match config.render.eval_background {
+        Background::Black => [0.0; 3],
+        _ => [1.0; 3],
+    };
+    render_settings(config, extent, schedule, background)
+}
+
+/// Render settings of a cloud trained with `config` in a scene of `extent`, at `schedule`, over
+/// `background`.
+fn render_settings(config: &SplatConfig, extent: f32, schedule: usize, background: [f32; 3]) -> RenderSettings {
+    RenderSettings {
+        near: config.render.near * extent,
+        low_pass: config.render.low_pass,
+        sh_degree: sh_degree(config, schedule),
+        background,
+        ..RenderSettings::default()
+    }
+}
+
 /// The reference's scene extent of a set of cameras.
 pub fn camera_extent(data: &ImageSet) -> f32 {
     let centres: Vec<Vec3> = data.cameras.iter().map(|c| c.position()).collect();
@@ -179,26 +206,16 @@ impl SplatTrainer {
 
     /// The SH degree in use at this step.
     pub fn sh_degree(&self) -> usize {
-        (self.schedule / self.config.train.sh_degree_every).min(self.config.train.sh_degree)
+        sh_degree(&self.config, self.schedule)
     }
 
     /// Render settings for evaluation (fixed background, current SH degree).
     pub fn eval_settings(&self) -> RenderSettings {
-        let bg = match self.config.render.eval_background {
-            Background::Black => [0.0; 3],
-            _ => [1.0; 3],
-        };
-        self.settings(bg)
+        eval_settings(&self.config, self.extent, self.schedule)
     }
 
     fn settings(&self, background: [f32; 3]) -> RenderSettings {
-        RenderSettings {
-            near: self.config.render.near * self.extent,
-            low_pass: self.config.render.low_pass,
-            sh_degree: self.sh_degree(),
-            background,
-            ..RenderSettings::default()
-        }
+        render_settings(&self.config, self.extent, self.schedule, background)
     }
 
     /// Learning rates in the model's kind order: positions decay exponentially from
