@@ -149,7 +149,8 @@ pub enum BenchTarget {
     /// `--scenes` (default many-lights) at `--width`, 4 spp: render time, shadow rays and
     /// per-pixel relative difference.
     Lightcuts,
-    /// The path tracer's time per sample with each material of issue 31 on a sphere, against
+    /// The path tracer's time per sample with each material model (layered, SVBRDF, measured,
+    /// neural, Poulin–Fournier, subsurface) on a sphere, against
     /// the same sphere as a GGX conductor, and the fibre materials on a hairy ball against
     /// GGX-conductor fibres (128x96, 32 spp, median of 5 alternating rounds).
     Materials,

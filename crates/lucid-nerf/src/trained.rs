@@ -74,6 +74,12 @@ pub(crate) fn eval_model(config: &NerfConfig, model: &NerfModel, average: Option
     }
 }
 
+/// The marcher of a scene whose occupancy is `grid`, for pixels of angle `pixel_angle`.
+pub(crate) fn marcher(config: &NerfConfig, grid: &OccupancyGrid, pixel_angle: f32) -> RayMarcher {
+    let (lo, hi) = grid.bounds();
+    RayMarcher::new(&config.march, (hi - lo).length(), pixel_angle, grid.resolution())
+}
+
 /// A renderer of `model` (parameters without autodiff tracking) over `grid` with the
 /// settings of `config`: its evaluation background, its march at the render step scale and
 /// its rays per pixel.
@@ -87,13 +93,11 @@ pub fn renderer<'a>(
         Background::Black => [0.0; 3],
         _ => [1.0; 3],
     };
-    let (lo, hi) = grid.bounds();
-    let marcher = RayMarcher::new(&config.march, (hi - lo).length(), pixel_angle, grid.resolution());
     ViewRenderer {
         model,
         config: config.field,
         grid,
-        marcher: marcher.with_step_scale(config.march.render_step_scale),
+        marcher: marcher(config, grid, pixel_angle).with_step_scale(config.march.render_step_scale),
         min_transmittance: config.train.min_transmittance,
         background,
         device: crate::backend::default_device(),

@@ -271,8 +271,7 @@ impl NerfTrainer {
 
     /// The marcher for this scene.
     pub fn marcher(&self) -> RayMarcher {
-        let (lo, hi) = self.grid.bounds();
-        RayMarcher::new(&self.config.march, (hi - lo).length(), self.pixel_angle, self.grid.resolution())
+        crate::trained::marcher(&self.config, &self.grid, self.pixel_angle)
     }
 
     /// The learning rate at the current schedule position (exponential decay to the final

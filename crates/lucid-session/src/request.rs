@@ -97,7 +97,8 @@ impl RunRequest {
         // The requested steps are free to differ (they set a resumed run's new budget).
         let (requested, _) = self.config_text()?;
         let path = folder.path("config.toml");
-        let recorded = read_text(&path)?;
+        let recorded = lucid_scene::text_file::read_text(&path)
+            .map_err(|e| SessionError::Invalid(format!("{}: {e}", path.display())))?;
         let changed = lucid_burn::config::changed_keys(&requested, &recorded, &["train.steps"])
             .map_err(|e| SessionError::Invalid(format!("{}: {e}", path.display())))?;
         if !changed.is_empty() {
@@ -152,11 +153,6 @@ impl RunRequest {
             ..RunOptions::new(budget)
         })
     }
-}
-
-/// A file's text, or an error naming it.
-pub(crate) fn read_text(path: &Path) -> Result<String, SessionError> {
-    std::fs::read_to_string(path).map_err(|e| SessionError::Invalid(format!("{}: {e}", path.display())))
 }
 
 /// Writes the configuration a run trains with into its folder.

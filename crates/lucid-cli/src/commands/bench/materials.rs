@@ -1,5 +1,5 @@
 //! `lucid bench materials`: the path tracer's time per sample on one scene whose sphere takes
-//! each material in turn, against the same sphere as a GGX conductor (issue 31's reference):
+//! each material in turn, against the same sphere as a GGX conductor (the reference):
 //! rounds alternate the materials and each keeps its median, so the machine's drift touches
 //! all alike.
 
